@@ -1,0 +1,223 @@
+// YAML loading and queries of the body model. Degrees appear only here, at the file edge.
+#include "tracker/body_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <yaml-cpp/yaml.h>
+
+namespace mocap {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+class Parser {
+ public:
+  explicit Parser(std::string source) : source_(std::move(source)) {}
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& path,
+                         const std::string& reason) const {
+    std::ostringstream msg;
+    msg << source_;
+    if (node.IsDefined() && node.Mark().line >= 0) msg << ":" << node.Mark().line + 1;
+    msg << ": " << path << ": " << reason;
+    throw std::runtime_error(msg.str());
+  }
+
+  YAML::Node require(const YAML::Node& map, const std::string& key, const std::string& path) const {
+    YAML::Node child = map[key];
+    if (!child) fail(map, path + "." + key, "missing");
+    return child;
+  }
+
+  double number(const YAML::Node& node, const std::string& path) const {
+    if (!node.IsScalar()) fail(node, path, "expected a number");
+    try {
+      double v = node.as<double>();
+      if (!std::isfinite(v)) fail(node, path, "not a finite number: '" + node.Scalar() + "'");
+      return v;
+    } catch (const YAML::Exception&) {
+      fail(node, path, "expected a number, got '" + node.Scalar() + "'");
+    }
+  }
+
+  std::string text(const YAML::Node& node, const std::string& path) const {
+    if (!node.IsScalar() || node.Scalar().empty()) fail(node, path, "expected a non-empty string");
+    return node.Scalar();
+  }
+
+  Eigen::Vector3d vec3(const YAML::Node& node, const std::string& path) const {
+    if (!node.IsSequence() || node.size() != 3) fail(node, path, "expected [x, y, z]");
+    return {number(node[0], path + "[0]"), number(node[1], path + "[1]"),
+            number(node[2], path + "[2]")};
+  }
+
+  Eigen::Vector3d unitVec3(const YAML::Node& node, const std::string& path) const {
+    Eigen::Vector3d v = vec3(node, path);
+    if (v.norm() < 1e-9) fail(node, path, "axis must not be zero");
+    return v.normalized();
+  }
+
+  double positive(const YAML::Node& node, const std::string& path) const {
+    double v = number(node, path);
+    if (v <= 0) fail(node, path, "must be positive, got " + node.Scalar());
+    return v;
+  }
+
+  Shape shape(const YAML::Node& node, const std::string& path) const {
+    Shape s;
+    if (!node.IsMap()) fail(node, path, "expected a map with a 'type'");
+    std::string type = text(require(node, "type", path), path + ".type");
+    if (type == "cone" || type == "truncated_cone") {
+      s.type = ShapeType::kTruncatedCone;
+      s.axis = node["axis"] ? unitVec3(node["axis"], path + ".axis") : Eigen::Vector3d::UnitZ();
+      s.length = positive(require(node, "length", path), path + ".length");
+      s.radius_start = positive(require(node, "radius_start", path), path + ".radius_start");
+      s.radius_end = positive(require(node, "radius_end", path), path + ".radius_end");
+    } else if (type == "ellipsoid") {
+      s.type = ShapeType::kEllipsoid;
+      s.center = node["center"] ? vec3(node["center"], path + ".center") : Eigen::Vector3d::Zero();
+      s.radii = vec3(require(node, "radii", path), path + ".radii");
+      if (s.radii.minCoeff() <= 0) fail(node["radii"], path + ".radii", "radii must be positive");
+    } else {
+      fail(node, path + ".type", "unknown shape '" + type + "' (expected cone or ellipsoid)");
+    }
+    return s;
+  }
+
+  Dof dof(const YAML::Node& node, const std::string& path) const {
+    Dof d;
+    if (!node.IsMap()) fail(node, path, "expected a map");
+    d.name = text(require(node, "name", path), path + ".name");
+    std::string type = node["type"] ? text(node["type"], path + ".type") : "rotation";
+    double unit = 1.0;
+    if (type == "rotation") {
+      d.type = DofType::kRotation;
+      unit = kDegToRad;
+    } else if (type == "translation") {
+      d.type = DofType::kTranslation;
+    } else {
+      fail(node["type"], path + ".type",
+           "unknown DOF type '" + type + "' (expected rotation or translation)");
+    }
+    d.axis = unitVec3(require(node, "axis", path), path + ".axis");
+    d.min = number(require(node, "min", path), path + ".min") * unit;
+    d.max = number(require(node, "max", path), path + ".max") * unit;
+    if (d.min > d.max) fail(node, path, "min is greater than max");
+    d.max_speed = positive(require(node, "max_speed", path), path + ".max_speed") * unit;
+    return d;
+  }
+
+ private:
+  std::string source_;
+};
+
+}  // namespace
+
+BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(source + ":" + std::to_string(e.mark.line + 1) +
+                             ": not valid YAML: " + e.msg);
+  }
+  Parser p(source);
+  if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
+  BodyModel model;
+  model.name = root["name"] ? p.text(root["name"], "name") : "body";
+  YAML::Node segs = p.require(root, "segments", "(top)");
+  if (!segs.IsSequence() || segs.size() == 0) p.fail(segs, "segments", "expected a non-empty list");
+
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const YAML::Node& n = segs[i];
+    std::string path = "segments[" + std::to_string(i) + "]";
+    if (!n.IsMap()) p.fail(n, path, "expected a map");
+    Segment seg;
+    seg.name = p.text(p.require(n, "name", path), path + ".name");
+    path = "segments[" + std::to_string(i) + "] (" + seg.name + ")";
+    if (model.segmentIndex(seg.name) >= 0) p.fail(n["name"], path + ".name", "duplicate segment");
+    if (n["parent"] && !n["parent"].IsNull()) {
+      std::string parent = p.text(n["parent"], path + ".parent");
+      seg.parent = model.segmentIndex(parent);
+      if (seg.parent < 0) {
+        p.fail(n["parent"], path + ".parent",
+               "unknown segment '" + parent + "' (parents must be listed before their children)");
+      }
+    } else if (!model.segments.empty()) {
+      p.fail(n, path + ".parent", "missing: only the first segment may be the root");
+    }
+    if (n["offset"]) seg.offset = p.vec3(n["offset"], path + ".offset");
+    const int index = static_cast<int>(model.segments.size());
+    if (YAML::Node dofs = n["dofs"]) {
+      if (!dofs.IsSequence()) p.fail(dofs, path + ".dofs", "expected a list");
+      if (dofs.size() > 6) p.fail(dofs, path + ".dofs", "a joint has at most 6 DOFs");
+      for (std::size_t k = 0; k < dofs.size(); ++k) {
+        std::string dpath = path + ".dofs[" + std::to_string(k) + "]";
+        Dof d = p.dof(dofs[k], dpath);
+        if (model.dofIndex(d.name) >= 0) p.fail(dofs[k], dpath + ".name", "duplicate DOF name");
+        d.segment = index;
+        seg.dofs.push_back(static_cast<int>(model.dofs.size()));
+        model.dofs.push_back(d);
+      }
+    }
+    if (n["shape"]) seg.shape = p.shape(n["shape"], path + ".shape");
+    if (YAML::Node pts = n["points"]) {
+      if (!pts.IsSequence()) p.fail(pts, path + ".points", "expected a list");
+      for (std::size_t k = 0; k < pts.size(); ++k) {
+        std::string ppath = path + ".points[" + std::to_string(k) + "]";
+        BodyPoint bp;
+        bp.name = p.text(p.require(pts[k], "name", ppath), ppath + ".name");
+        if (model.pointIndex(bp.name) >= 0) p.fail(pts[k], ppath + ".name", "duplicate point");
+        bp.segment = index;
+        if (pts[k]["at"]) bp.local = p.vec3(pts[k]["at"], ppath + ".at");
+        model.points.push_back(bp);
+      }
+    }
+    model.segments.push_back(seg);
+  }
+  return model;
+}
+
+BodyModel loadBodyModel(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open body model file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return parseBodyModel(buffer.str(), path);
+}
+
+int BodyModel::segmentIndex(const std::string& segment_name) const {
+  for (std::size_t i = 0; i < segments.size(); ++i)
+    if (segments[i].name == segment_name) return static_cast<int>(i);
+  return -1;
+}
+
+int BodyModel::dofIndex(const std::string& dof_name) const {
+  for (std::size_t i = 0; i < dofs.size(); ++i)
+    if (dofs[i].name == dof_name) return static_cast<int>(i);
+  return -1;
+}
+
+int BodyModel::pointIndex(const std::string& point_name) const {
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (points[i].name == point_name) return static_cast<int>(i);
+  return -1;
+}
+
+Eigen::VectorXd BodyModel::neutralPose() const {
+  Eigen::VectorXd q(dofs.size());
+  for (std::size_t i = 0; i < dofs.size(); ++i) q[i] = std::clamp(0.0, dofs[i].min, dofs[i].max);
+  return q;
+}
+
+bool BodyModel::isStatic(int s) const {
+  for (; s >= 0; s = segments[s].parent)
+    if (!segments[s].dofs.empty()) return false;
+  return true;
+}
+
+}  // namespace mocap

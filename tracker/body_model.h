@@ -1,0 +1,76 @@
+// The articulated body model: an immutable tree of segments, each moved by a joint of 0-6 DOFs
+// (rotations about or translations along fixed axes) and drawn as a truncated cone or an ellipsoid.
+// Loaded once from YAML; everything that changes per pose lives in data objects (kinematics.h).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace mocap {
+
+enum class DofType { kRotation, kTranslation };
+
+struct Dof {
+  std::string name;
+  DofType type = DofType::kRotation;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // unit, in the segment's joint frame
+  double min = 0;        // radians or metres
+  double max = 0;
+  double max_speed = 0;  // largest change in one frame (radians or metres per frame)
+  int segment = -1;      // the segment this DOF moves
+};
+
+enum class ShapeType { kNone, kTruncatedCone, kEllipsoid };
+
+struct Shape {
+  ShapeType type = ShapeType::kNone;
+  // Truncated cone: from the joint origin along `axis` for `length`, radius_start at the joint,
+  // radius_end at the far end.
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  double length = 0;
+  double radius_start = 0;
+  double radius_end = 0;
+  // Ellipsoid: centre in the segment frame, semi-axes along the segment frame axes.
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  Eigen::Vector3d radii = Eigen::Vector3d::Zero();
+};
+
+struct Segment {
+  std::string name;
+  int parent = -1;                                     // -1 for the root
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();    // joint origin in the parent's frame
+  std::vector<int> dofs;                               // indices into BodyModel::dofs, applied in order
+  Shape shape;
+};
+
+// A named 3D point carried by a segment (a joint centre or an end site): what errors are measured on.
+struct BodyPoint {
+  std::string name;
+  int segment = -1;
+  Eigen::Vector3d local = Eigen::Vector3d::Zero();
+};
+
+class BodyModel {
+ public:
+  std::string name;
+  std::vector<Segment> segments;  // parents always precede their children
+  std::vector<Dof> dofs;          // in segment order: the DBN's hidden-variable order
+  std::vector<BodyPoint> points;
+
+  int segmentIndex(const std::string& segment_name) const;  // -1 if absent
+  int dofIndex(const std::string& dof_name) const;          // -1 if absent
+  int pointIndex(const std::string& point_name) const;      // -1 if absent
+  // The DOF vector with every DOF at the nearest in-range value to zero.
+  Eigen::VectorXd neutralPose() const;
+  // True if segment `s` never moves (it and all its ancestors have no DOFs).
+  bool isStatic(int s) const;
+};
+
+// Parses a body model from YAML text. `source` names the file in error messages. Throws
+// std::runtime_error with "<source>:<line>: <field path>: <reason>" on any bad input.
+BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source);
+BodyModel loadBodyModel(const std::string& path);
+
+}  // namespace mocap

@@ -1,0 +1,112 @@
+// The simulated hand experiment.
+#include "tracker/experiments/hand_experiment.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "tracker/experiments/metrics.h"
+#include "tracker/hand_model_yaml.h"
+#include "tracker/kinematics.h"
+#include "tracker/motion.h"
+#include "tracker/scene.h"
+
+namespace mocap {
+
+BodyModel builtinHandModel() { return parseBodyModel(kHandModelYaml, "built-in hand.yaml"); }
+
+Rig handRig(int cameras, int width, int height) {
+  // The hand spans about 0.2 m around this point; 0.55 m away, it fills most of the image height.
+  const Eigen::Vector3d target(0.0, 0.0, 0.05);
+  const double distance = 0.55;
+  const double focal = 1200.0 * height / 580.0;
+  Rig rig;
+  for (int i = 0; i < cameras; ++i) {
+    // Azimuth 0 looks at the palm (from -Y); the arc spans +-70 degrees; elevations alternate.
+    const double azimuth = cameras == 1 ? 0.0 : (-70.0 + 140.0 * i / (cameras - 1)) * M_PI / 180;
+    const double elevation = (i % 2 ? 5.0 : 25.0) * M_PI / 180;
+    const Eigen::Vector3d eye =
+        target + distance * Eigen::Vector3d(std::sin(azimuth) * std::cos(elevation),
+                                            -std::cos(azimuth) * std::cos(elevation),
+                                            std::sin(elevation));
+    rig.push_back(CameraModel::lookAt("cam" + std::to_string(i), eye, target,
+                                      Eigen::Vector3d::UnitZ(), width, height, focal));
+  }
+  return rig;
+}
+
+nlohmann::json describeModel(const BodyModel& model) {
+  nlohmann::json dofs = nlohmann::json::array();
+  for (const Dof& d : model.dofs)
+    dofs.push_back({{"name", d.name}, {"min", d.min}, {"max", d.max}, {"max_speed", d.max_speed}});
+  nlohmann::json joints = nlohmann::json::array();
+  for (const BodyPoint& p : model.points) joints.push_back(p.name);
+  return {{"dofs", dofs}, {"joints", joints}};
+}
+
+nlohmann::json runHandExperiment(const HandExperimentConfig& config) {
+  const BodyModel model =
+      config.model_path.empty() ? builtinHandModel() : loadBodyModel(config.model_path);
+  const Rig rig = handRig(config.cameras);
+  const Motion motion = config.motion_path.empty()
+                            ? generateMotion(model, config.frames, config.seed)
+                            : loadMotionCsv(config.motion_path, model);
+  const int frames = std::min<int>(config.frames, static_cast<int>(motion.size()));
+
+  FilterOptions options = config.filter;
+  options.evaluations_per_frame = config.evaluations;
+  options.seed = config.seed;
+  WorkerPool pool(config.threads);
+  std::unique_ptr<PoseFilter> filter = makeFilter(config.method, model, rig, options, pool);
+  filter->reset(motion[0]);
+
+  SceneRenderer renderer(model, rig);
+  KinematicsData kin(model);
+  std::vector<cv::Mat> images;
+  std::vector<SilhouetteMask> masks(rig.size());
+  PointTrack truth, tracked;
+  long evaluations = 0, renders = 0;
+  double tracking_seconds = 0;
+  for (int f = 0; f < frames; ++f) {
+    renderer.renderSilhouettes(motion[f], images);
+    for (std::size_t c = 0; c < rig.size(); ++c) masks[c] = SilhouetteMask(images[c]);
+    const auto start = std::chrono::steady_clock::now();
+    const FrameEstimate estimate = filter->step(masks);
+    tracking_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    evaluations += estimate.evaluations;
+    renders += estimate.segment_renders;
+    forwardKinematics(model, kin, motion[f]);
+    truth.push_back(pointPositions(model, kin));
+    forwardKinematics(model, kin, estimate.q);
+    tracked.push_back(pointPositions(model, kin));
+  }
+
+  const std::vector<double> relative = relativeErrorPerPoint(truth, tracked);
+  nlohmann::json per_joint = nlohmann::json::object();
+  double sum = 0;
+  int moving = 0;
+  for (std::size_t p = 0; p < relative.size(); ++p) {
+    if (relative[p] < 0) continue;  // a point that never moves has no amplitude to divide by
+    per_joint[model.points[p].name] = relative[p];
+    sum += relative[p];
+    ++moving;
+  }
+  const int tip = model.pointIndex("index_tip");
+  return {
+      {"experiment", "hand"},
+      {"method", config.method},
+      {"frames", frames},
+      {"cameras", static_cast<int>(rig.size())},
+      {"seed", config.seed},
+      {"threads", pool.size()},
+      {"evals_per_frame", static_cast<double>(evaluations) / frames},
+      {"segment_renders_per_frame", static_cast<double>(renders) / frames},
+      {"mean_relative_error", moving ? sum / moving : 0.0},
+      {"per_joint_relative_error", per_joint},
+      {"forefinger_tip_relative_error",
+       tip >= 0 && relative[tip] >= 0 ? nlohmann::json(relative[tip]) : nlohmann::json()},
+      {"seconds_per_frame", tracking_seconds / frames},
+  };
+}
+
+}  // namespace mocap

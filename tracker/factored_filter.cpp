@@ -1,0 +1,308 @@
+// The factored particle filter of Rose, Saboune & Charpillet (AAAI-08, §5 Fig. 2, §7, §8.3).
+//
+// The DBN is walked in topological order: one layer per DOF (the hidden node), each followed by the
+// observation of the segment that DOF moves. A layer completes every kept particle with S equally
+// spaced samples of the DOF's uniform proposal (deterministic interval sampling), a small share of
+// candidates drawn instead from the DOF's whole range (static particle injection), weighs each
+// candidate by its segment's masked-chain likelihood and keeps the K best without uniformizing
+// their weights. A particle remembers, per segment, the node holding that segment's world pose and
+// footprints, so later layers extend its chain and mask what it already explains.
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <stdexcept>
+
+#include "tracker/filter.h"
+#include "tracker/kinematics.h"
+
+namespace mocap {
+namespace {
+
+struct Layer {
+  int segment = -1;
+  int dof = -1;  // -1: observation only (a DOF-less segment moved by its ancestors)
+};
+
+// A segment placed in one particle's chain: its world pose and footprints (one per camera).
+struct Node {
+  Eigen::Isometry3d pose;
+  int first_footprint = 0;  // index into node_footprints_
+};
+
+struct Particle {
+  Eigen::VectorXd q;
+  double log_weight = 0;
+  std::vector<int> node;  // per segment: index into nodes_, -1 until observed this frame
+};
+
+struct Candidate {
+  Eigen::VectorXd q;
+  double log_weight = 0;
+  int parent = 0;
+  Eigen::Isometry3d pose;
+};
+
+struct WorkerScratch {
+  explicit WorkerScratch(int points_per_circle, std::size_t cameras)
+      : rasterizer(points_per_circle), explained(cameras) {}
+  ShapeRasterizer rasterizer;
+  std::vector<std::vector<Footprint>> explained;  // per camera
+};
+
+class FactoredFilter final : public PoseFilter {
+ public:
+  FactoredFilter(const BodyModel& model, const Rig& rig, const FilterOptions& options,
+                 WorkerPool& pool)
+      : model_(model), rig_(rig), options_(options), pool_(pool), rng_(options.seed) {
+    if (options.keep < 1) throw std::invalid_argument("factored filter: keep must be >= 1");
+    if (options.injection_share < 0 || options.injection_share >= 1)
+      throw std::invalid_argument("factored filter: injection share must be in [0, 1)");
+    buildLayers();
+    const int sampling_layers = static_cast<int>(
+        std::count_if(layers_.begin(), layers_.end(), [](const Layer& l) { return l.dof >= 0; }));
+    const int observation_layers = static_cast<int>(layers_.size()) - sampling_layers;
+    samples_ = options.samples;
+    if (samples_ <= 0) {
+      const double budget = options.evaluations_per_frame - observation_layers * options.keep;
+      samples_ = std::max(
+          1, static_cast<int>(std::lround(budget / std::max(1, sampling_layers * options.keep))));
+    }
+    candidates_per_layer_ = options.keep * samples_;
+
+    for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
+    candidates_.resize(candidates_per_layer_);
+    candidate_spans_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size() * max_rows_);
+    candidate_footprints_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size());
+    const std::size_t max_nodes = model.segments.size() + layers_.size() * options.keep;
+    nodes_.reserve(max_nodes);
+    node_footprints_.reserve(max_nodes * rig.size());
+    // Reserved once: footprints point into this arena, so it must never reallocate.
+    span_arena_.resize(max_nodes * rig.size() * max_rows_);
+    for (int w = 0; w < pool.size(); ++w)
+      scratch_.emplace_back(options.likelihood.points_per_circle, rig.size());
+  }
+
+  std::string name() const override { return "factored"; }
+
+  void reset(const Eigen::VectorXd& q0) override {
+    if (q0.size() != static_cast<long>(model_.dofs.size()))
+      throw std::invalid_argument("factored filter: initial pose has the wrong number of DOFs");
+    // One particle: the first layer spreads the whole budget over it.
+    particles_.assign(1, Particle{q0, 0.0, std::vector<int>(model_.segments.size(), -1)});
+    clampToLimits(model_, particles_[0].q);
+  }
+
+  FrameEstimate step(const std::vector<SilhouetteMask>& masks) override {
+    if (masks.size() != rig_.size())
+      throw std::invalid_argument("factored filter: expected one mask per camera");
+    if (particles_.empty()) reset(model_.neutralPose());
+    FrameEstimate estimate;
+    startFrame(estimate);
+    double injection_debt = 0;
+    for (const Layer& layer : layers_) {
+      const int count = generateCandidates(layer, injection_debt);
+      pool_.parallelFor(count, [&](int i, int worker) { evaluate(layer, i, masks, worker); });
+      estimate.evaluations += count;
+      estimate.segment_renders += count;
+      keepBest(layer, count);
+    }
+    finishFrame(estimate);
+    return estimate;
+  }
+
+ private:
+  void buildLayers() {
+    for (std::size_t s = 0; s < model_.segments.size(); ++s) {
+      const Segment& seg = model_.segments[s];
+      const int si = static_cast<int>(s);
+      if (model_.isStatic(si)) {
+        static_segments_.push_back(si);
+        continue;
+      }
+      if (seg.shape.type == ShapeType::kNone)
+        throw std::invalid_argument("factored filter: segment '" + seg.name +
+                                    "' moves but has no shape, so nothing observes it");
+      if (seg.dofs.empty()) layers_.push_back({si, -1});
+      for (int d : seg.dofs) layers_.push_back({si, d});
+    }
+  }
+
+  Footprint* candidateFootprints(int i) { return &candidate_footprints_[i * rig_.size()]; }
+  RowSpan* candidateSpans(int i, std::size_t camera) {
+    return &candidate_spans_[(i * rig_.size() + camera) * max_rows_];
+  }
+
+  // Normalizes the carried weights, and places the static segments (identical in every particle)
+  // once in the node arena.
+  void startFrame(FrameEstimate& estimate) {
+    nodes_.clear();
+    node_footprints_.clear();
+    arena_used_ = 0;
+    double max_lw = -INFINITY;
+    for (const Particle& p : particles_) max_lw = std::max(max_lw, p.log_weight);
+    double sum = 0;
+    for (const Particle& p : particles_) sum += std::exp(p.log_weight - max_lw);
+    const double log_norm = max_lw + std::log(sum);
+    for (Particle& p : particles_) {
+      p.log_weight -= log_norm;
+      std::fill(p.node.begin(), p.node.end(), -1);
+    }
+    if (static_segments_.empty()) return;
+    KinematicsData kin(model_);
+    forwardKinematics(model_, kin, particles_[0].q);
+    ShapeRasterizer& rasterizer = scratch_[0].rasterizer;
+    for (int s : static_segments_) {
+      const int node = addNode(kin.world[s]);
+      for (std::size_t c = 0; c < rig_.size(); ++c) {
+        RowSpan* spans = &span_arena_[arena_used_];
+        Footprint f = rasterizer.rasterize(model_.segments[s].shape, kin.world[s], rig_[c], spans);
+        arena_used_ += static_cast<std::size_t>(f.y1 - f.y0);
+        node_footprints_[nodes_[node].first_footprint + c] = f;
+      }
+      estimate.segment_renders += 1;
+      for (Particle& p : particles_) p.node[s] = node;
+    }
+  }
+
+  int addNode(const Eigen::Isometry3d& pose) {
+    nodes_.push_back({pose, static_cast<int>(node_footprints_.size())});
+    node_footprints_.resize(node_footprints_.size() + rig_.size());
+    return static_cast<int>(nodes_.size()) - 1;
+  }
+
+  // Completes the kept particles (sorted best first) with deterministic interval samples of the
+  // layer's DOF; the last candidates (those of the weakest particle) are replaced by injected
+  // samples over the DOF's whole range.
+  int generateCandidates(const Layer& layer, double& injection_debt) {
+    const int parents = static_cast<int>(particles_.size());
+    int count = 0;
+    if (layer.dof < 0) {
+      for (int p = 0; p < parents; ++p) {
+        Candidate& c = candidates_[count++];
+        c.q = particles_[p].q;
+        c.parent = p;
+        c.log_weight = particles_[p].log_weight;
+      }
+      return count;
+    }
+    const Dof& dof = model_.dofs[layer.dof];
+    for (int p = 0; p < parents; ++p) {
+      // The budget is shared evenly; the better particles take the remainder.
+      const int share = candidates_per_layer_ / parents + (p < candidates_per_layer_ % parents);
+      const auto [lo, hi] = proposalInterval(dof, particles_[p].q[layer.dof]);
+      for (int j = 0; j < share; ++j) {
+        Candidate& c = candidates_[count++];
+        c.q = particles_[p].q;
+        c.q[layer.dof] = share == 1 ? 0.5 * (lo + hi) : lo + (hi - lo) * j / (share - 1);
+        c.parent = p;
+        c.log_weight = particles_[p].log_weight;
+      }
+    }
+    injection_debt += options_.injection_share * count;
+    const int injected = std::min(count, static_cast<int>(injection_debt));
+    injection_debt -= injected;
+    std::uniform_real_distribution<double> anywhere(dof.min, dof.max);
+    for (int k = 0; k < injected; ++k) candidates_[count - 1 - k].q[layer.dof] = anywhere(rng_);
+    return count;
+  }
+
+  void evaluate(const Layer& layer, int i, const std::vector<SilhouetteMask>& masks, int worker) {
+    Candidate& cand = candidates_[i];
+    const Particle& parent = particles_[cand.parent];
+    const int s = layer.segment;
+    const int parent_segment = model_.segments[s].parent;
+    const Eigen::Isometry3d local = localTransform(model_, s, cand.q);
+    cand.pose = parent_segment < 0 ? local : nodes_[parent.node[parent_segment]].pose * local;
+
+    WorkerScratch& scratch = scratch_[worker];
+    for (std::size_t c = 0; c < rig_.size(); ++c) {
+      std::vector<Footprint>& explained = scratch.explained[c];
+      explained.clear();
+      for (std::size_t j = 0; j < parent.node.size(); ++j) {
+        if (static_cast<int>(j) == s || parent.node[j] < 0) continue;
+        explained.push_back(node_footprints_[nodes_[parent.node[j]].first_footprint + c]);
+      }
+    }
+    RowSpan* spans[kMaxCameras];
+    for (std::size_t c = 0; c < rig_.size(); ++c) spans[c] = candidateSpans(i, c);
+    const PixelCounts counts =
+        observeSegment(model_.segments[s].shape, cand.pose, rig_, masks, scratch.rasterizer, spans,
+                       candidateFootprints(i), scratch.explained);
+    cand.log_weight += logLikelihood(options_.likelihood, counts);
+  }
+
+  // Keeps the K heaviest candidates (ties to the earlier one, so the result never depends on
+  // thread timing) and moves their footprints into the frame's node arena.
+  void keepBest(const Layer& layer, int count) {
+    order_.resize(count);
+    std::iota(order_.begin(), order_.end(), 0);
+    const int kept = std::min(options_.keep, count);
+    std::partial_sort(order_.begin(), order_.begin() + kept, order_.end(), [&](int a, int b) {
+      const double wa = candidates_[a].log_weight, wb = candidates_[b].log_weight;
+      return wa > wb || (wa == wb && a < b);
+    });
+    next_particles_.resize(kept);
+    for (int k = 0; k < kept; ++k) {
+      const Candidate& cand = candidates_[order_[k]];
+      Particle& out = next_particles_[k];
+      out.q = cand.q;
+      out.log_weight = cand.log_weight;
+      out.node = particles_[cand.parent].node;
+      const int node = addNode(cand.pose);
+      const Footprint* from = candidateFootprints(order_[k]);
+      for (std::size_t c = 0; c < rig_.size(); ++c) {
+        Footprint f = from[c];
+        RowSpan* dst = &span_arena_[arena_used_];
+        std::copy(f.spans, f.spans + (f.y1 - f.y0), dst);
+        arena_used_ += static_cast<std::size_t>(f.y1 - f.y0);
+        f.spans = dst;
+        node_footprints_[nodes_[node].first_footprint + c] = f;
+      }
+      out.node[layer.segment] = node;
+    }
+    particles_.swap(next_particles_);
+  }
+
+  void finishFrame(FrameEstimate& estimate) {
+    std::vector<const Eigen::VectorXd*> qs;
+    std::vector<double> lw;
+    for (const Particle& p : particles_) {
+      qs.push_back(&p.q);
+      lw.push_back(p.log_weight);
+    }
+    weightedEstimate(qs, lw, estimate);
+  }
+
+  const BodyModel& model_;
+  const Rig& rig_;
+  FilterOptions options_;
+  WorkerPool& pool_;
+  std::mt19937_64 rng_;
+
+  std::vector<Layer> layers_;
+  std::vector<int> static_segments_;
+  int samples_ = 0;
+  int candidates_per_layer_ = 0;
+  int max_rows_ = 0;
+
+  std::vector<Particle> particles_, next_particles_;
+  std::vector<Candidate> candidates_;
+  std::vector<RowSpan> candidate_spans_;
+  std::vector<Footprint> candidate_footprints_;
+  std::vector<int> order_;
+  std::vector<Node> nodes_;
+  std::vector<Footprint> node_footprints_;
+  std::vector<RowSpan> span_arena_;
+  std::size_t arena_used_ = 0;
+  std::vector<WorkerScratch> scratch_;
+};
+
+}  // namespace
+
+std::unique_ptr<PoseFilter> makeFactoredFilter(const BodyModel& model, const Rig& rig,
+                                               const FilterOptions& options, WorkerPool& pool) {
+  return std::make_unique<FactoredFilter>(model, rig, options, pool);
+}
+
+}  // namespace mocap

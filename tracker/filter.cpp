@@ -1,0 +1,43 @@
+// What the filters share: the factory, the proposal interval and the weighted estimate.
+#include "tracker/filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace mocap {
+
+std::unique_ptr<PoseFilter> makeFilter(const std::string& method, const BodyModel& model,
+                                       const Rig& rig, const FilterOptions& options,
+                                       WorkerPool& pool) {
+  if (rig.empty() || rig.size() > kMaxCameras)
+    throw std::invalid_argument("filter: the rig must have 1 to " + std::to_string(kMaxCameras) +
+                                " cameras");
+  if (options.evaluations_per_frame < 1)
+    throw std::invalid_argument("filter: evaluations per frame must be positive");
+  if (method == "factored") return makeFactoredFilter(model, rig, options, pool);
+  if (method == "condensation") return makeCondensationFilter(model, rig, options, pool);
+  throw std::invalid_argument("unknown filter method '" + method +
+                              "' (expected factored or condensation)");
+}
+
+std::pair<double, double> proposalInterval(const Dof& dof, double value) {
+  return {std::max(dof.min, value - dof.max_speed), std::min(dof.max, value + dof.max_speed)};
+}
+
+void weightedEstimate(const std::vector<const Eigen::VectorXd*>& particles,
+                      const std::vector<double>& log_weights, FrameEstimate& out) {
+  const double best = *std::max_element(log_weights.begin(), log_weights.end());
+  out.best_log_weight = best;
+  std::vector<double> w(log_weights.size());
+  double sum = 0;
+  for (std::size_t i = 0; i < w.size(); ++i) sum += w[i] = std::exp(log_weights[i] - best);
+  out.q = Eigen::VectorXd::Zero(particles[0]->size());
+  for (std::size_t i = 0; i < w.size(); ++i) out.q += (w[i] / sum) * *particles[i];
+  double spread = 0;
+  for (std::size_t i = 0; i < w.size(); ++i)
+    spread += (w[i] / sum) * (*particles[i] - out.q).squaredNorm();
+  out.spread = std::sqrt(spread);
+}
+
+}  // namespace mocap

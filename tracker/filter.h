@@ -1,0 +1,70 @@
+// The pose filters behind one interface: the factored particle filter (paper §5, the default),
+// Condensation and the annealed particle filter as baselines. All share the body model, the
+// likelihood and the proposal (uniform on an interval of +-max_speed around the previous value), and
+// count particle evaluations the paper's way.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tracker/body_model.h"
+#include "tracker/camera.h"
+#include "tracker/likelihood.h"
+#include "tracker/silhouette_mask.h"
+#include "tracker/worker_pool.h"
+
+namespace mocap {
+
+struct FilterOptions {
+  // Particle evaluations per frame, as the paper counts them: one per candidate per layer for the
+  // factored filter (15 layers x 25 = 375 for the hand), one per full-body particle otherwise.
+  int evaluations_per_frame = 375;
+  int keep = 5;                   // factored: K best candidates kept per layer
+  int samples = 0;                // factored: S samples per interval; 0 = derived from the budget
+  double injection_share = 0.02;  // factored: share of candidates from the static distribution
+  int annealing_layers = 5;       // annealed: number of annealing layers per frame
+  uint64_t seed = 1;
+  LikelihoodParams likelihood;
+};
+
+struct FrameEstimate {
+  Eigen::VectorXd q;          // pose estimate: weighted mean of the particle set
+  double spread = 0;          // weighted RMS distance of the particles from q (DOF units)
+  double best_log_weight = 0;
+  long evaluations = 0;       // particle evaluations spent this frame (the paper's count)
+  long segment_renders = 0;   // segment rasterizations (the compute actually spent)
+};
+
+class PoseFilter {
+ public:
+  virtual ~PoseFilter() = default;
+  virtual std::string name() const = 0;
+  // Starts tracking from a known pose.
+  virtual void reset(const Eigen::VectorXd& q0) = 0;
+  // One frame: masks[c] is camera c's silhouette, cameras in rig order.
+  virtual FrameEstimate step(const std::vector<SilhouetteMask>& masks) = 0;
+};
+
+// method: "factored", "condensation" or "annealed". The model, rig and pool are borrowed and must
+// outlive the filter. Throws std::invalid_argument on an unknown method or unusable options.
+std::unique_ptr<PoseFilter> makeFilter(const std::string& method, const BodyModel& model,
+                                       const Rig& rig, const FilterOptions& options,
+                                       WorkerPool& pool);
+
+std::unique_ptr<PoseFilter> makeFactoredFilter(const BodyModel& model, const Rig& rig,
+                                               const FilterOptions& options, WorkerPool& pool);
+std::unique_ptr<PoseFilter> makeCondensationFilter(const BodyModel& model, const Rig& rig,
+                                                   const FilterOptions& options, WorkerPool& pool);
+
+// Shared by the filters: the weighted mean and spread of a set of DOF vectors with log-weights.
+void weightedEstimate(const std::vector<const Eigen::VectorXd*>& particles,
+                      const std::vector<double>& log_weights, FrameEstimate& out);
+
+// The interval the proposal samples for DOF `d` around `value`: +-max_speed, clipped to the limits.
+std::pair<double, double> proposalInterval(const Dof& dof, double value);
+
+}  // namespace mocap

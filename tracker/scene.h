@@ -1,0 +1,39 @@
+// The scene simulator: renders ground-truth silhouettes of a body model in a pose into calibrated
+// virtual cameras. The ground-truth source of experiments and tests, and the fake camera's renderer.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tracker/body_model.h"
+#include "tracker/camera.h"
+#include "tracker/kinematics.h"
+#include "tracker/raster.h"
+
+namespace mocap {
+
+// Finely tessellated by default so the tracker's coarser outlines never match the truth exactly.
+constexpr int kSimulatorPointsPerCircle = 48;
+
+class SceneRenderer {
+ public:
+  SceneRenderer(const BodyModel& model, const Rig& rig,
+                int points_per_circle = kSimulatorPointsPerCircle);
+  // One CV_8UC1 image per camera, 255 where the body is.
+  std::vector<cv::Mat> renderSilhouettes(const Eigen::VectorXd& q);
+  // Renders into existing images (resized if needed) to avoid reallocation per frame.
+  void renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::Mat>& images);
+
+ private:
+  const BodyModel& model_;
+  const Rig& rig_;
+  KinematicsData kinematics_;
+  ShapeRasterizer rasterizer_;
+  std::vector<RowSpan> spans_;
+};
+
+// Sets every pixel of `footprint` in `image` (CV_8UC1) to `value`.
+void fillFootprint(cv::Mat& image, const Footprint& footprint, uint8_t value);
+
+}  // namespace mocap
