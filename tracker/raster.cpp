@@ -5,6 +5,15 @@
 #include <cmath>
 
 namespace mocap {
+namespace {
+
+// ceil for 0 <= x < 2^31 without a libm call (baseline x86-64 has no rounding instruction).
+inline int ceilToInt(double x) {
+  const int i = static_cast<int>(x);
+  return i + (x > i);
+}
+
+}  // namespace
 
 long Footprint::area() const {
   long sum = 0;
@@ -22,6 +31,7 @@ ShapeRasterizer::ShapeRasterizer(int points_per_circle) {
   }
   projected_.reserve(2 * n);
   hull_.reserve(2 * n + 1);
+  for (auto& xs : chain_x_) xs.resize(kMaxImageRows);
 }
 
 bool ShapeRasterizer::outline(const Shape& shape, const Eigen::Isometry3d& pose,
@@ -94,7 +104,7 @@ void convexHull(std::vector<Eigen::Vector2d>& points, std::vector<Eigen::Vector2
   hull.resize(k - 1);
 }
 
-Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* buffer) const {
+Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* buffer) {
   Footprint f;
   const int n = static_cast<int>(hull_.size());
   if (n < 3) return f;
@@ -105,35 +115,47 @@ Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* bu
   }
   // Rows whose centre lies in [ytop, ybottom), top-left rule.
   const int y0 = std::max(0, static_cast<int>(std::ceil(hull_[top].y())));
-  const int y1 = std::min(camera.height, static_cast<int>(std::ceil(hull_[bottom].y())));
+  const int y1 = std::min({camera.height, kMaxImageRows,
+                           static_cast<int>(std::ceil(hull_[bottom].y()))});
   if (y0 >= y1) return f;
 
-  // Walk the two chains from the top vertex to the bottom vertex, one forward, one backward.
-  int a = top, b = top;
-  auto next = [n](int i) { return i + 1 == n ? 0 : i + 1; };
-  auto prev = [n](int i) { return i == 0 ? n - 1 : i - 1; };
-  auto xAt = [this](int from, int to, double y) {
-    const Eigen::Vector2d& p = hull_[from];
-    const Eigen::Vector2d& q = hull_[to];
-    const double dy = q.y() - p.y();
-    return dy <= 0 ? std::min(p.x(), q.x()) : p.x() + (q.x() - p.x()) * (y - p.y()) / dy;
+  // Each chain from the top vertex to the bottom vertex (one forward, one backward) writes its x for
+  // every row its edges cross; a row then takes the smaller as left and the larger as right edge.
+  const int rows = y1 - y0;
+  double* xa = chain_x_[0].data();
+  double* xb = chain_x_[1].data();
+  auto walk = [&](int step, double* out) {
+    for (int v = top; v != bottom;) {
+      const int to = (v + step) % n;
+      const Eigen::Vector2d& p = hull_[v];
+      const Eigen::Vector2d& q = hull_[to];
+      // Rows whose centre lies in [p.y, q.y), clipped to the image.
+      const int from_row = std::max(y0, ceilToInt(std::max(p.y(), 0.0)));
+      const int to_row = std::min(y1, ceilToInt(std::clamp(q.y(), 0.0, double(y1))));
+      if (to_row > from_row) {
+        const double slope = (q.x() - p.x()) / (q.y() - p.y());
+        double x = p.x() + slope * (from_row - p.y());
+        for (int y = from_row; y < to_row; ++y, x += slope) out[y - y0] = x;
+      }
+      v = to;
+    }
   };
+  walk(1, xa);
+  walk(n - 1, xb);
+  const double width = camera.width;
   int xmin = camera.width, xmax = 0;
   int first = -1, last = -1;
-  for (int y = y0; y < y1; ++y) {
-    while (a != bottom && hull_[next(a)].y() < y) a = next(a);
-    while (b != bottom && hull_[prev(b)].y() < y) b = prev(b);
-    const double xa = xAt(a, next(a), y);
-    const double xb = xAt(b, prev(b), y);
-    const double left = std::min(xa, xb), right = std::max(xa, xb);
-    const int x0 = std::clamp(static_cast<int>(std::ceil(left)), 0, camera.width);
-    const int x1 = std::clamp(static_cast<int>(std::ceil(right)), 0, camera.width);
-    RowSpan& span = buffer[y - y0];
-    span.x0 = static_cast<int16_t>(x0);
-    span.x1 = static_cast<int16_t>(std::max(x0, x1));
+  for (int r = 0; r < rows; ++r) {
+    // Clamped first, so the integer conversion is safe for any projection.
+    const double left = std::clamp(std::min(xa[r], xb[r]), 0.0, width);
+    const double right = std::clamp(std::max(xa[r], xb[r]), left, width);
+    const int x0 = ceilToInt(left);
+    const int x1 = ceilToInt(right);
+    buffer[r].x0 = static_cast<int16_t>(x0);
+    buffer[r].x1 = static_cast<int16_t>(x1);
     if (x1 > x0) {
-      if (first < 0) first = y;
-      last = y;
+      if (first < 0) first = y0 + r;
+      last = y0 + r;
       xmin = std::min(xmin, x0);
       xmax = std::max(xmax, x1);
     }

@@ -13,6 +13,9 @@
 
 namespace mocap {
 
+// Footprints are clipped to this many rows (the int16 spans allow up to 32767 columns too).
+inline constexpr int kMaxImageRows = 8192;
+
 struct RowSpan {
   int16_t x0 = 0;  // first column inside
   int16_t x1 = 0;  // one past the last column inside (x1 == x0: empty row)
@@ -50,11 +53,12 @@ class ShapeRasterizer {
 
  private:
   bool outline(const Shape& shape, const Eigen::Isometry3d& pose, const CameraModel& camera);
-  Footprint scanConvexHull(const CameraModel& camera, RowSpan* buffer) const;
+  Footprint scanConvexHull(const CameraModel& camera, RowSpan* buffer);
 
   std::vector<double> cos_, sin_;  // unit circle, area-matched radius folded in
   std::vector<Eigen::Vector2d> projected_;
   std::vector<Eigen::Vector2d> hull_;
+  std::vector<double> chain_x_[2];  // per row, the x of each hull chain
 };
 
 // Convex hull (Andrew's monotone chain) of `points`, counter-clockwise in a y-up frame, without

@@ -1,4 +1,4 @@
-// Prefix-summed silhouette masks.
+// Bit-packed silhouette masks with per-word running counts.
 #include "tracker/silhouette_mask.h"
 
 #include <stdexcept>
@@ -10,18 +10,19 @@ SilhouetteMask::SilhouetteMask(const cv::Mat& binary) {
   if (binary.type() != CV_8UC1)
     throw std::invalid_argument("silhouette mask must be 8-bit single channel, got type " +
                                 std::to_string(binary.type()));
-  if (binary.cols > 65535) throw std::invalid_argument("silhouette mask wider than 65535 pixels");
   width_ = binary.cols;
   height_ = binary.rows;
-  prefix_.resize(static_cast<std::size_t>(height_) * (width_ + 1));
+  words_per_row_ = width_ / 64 + 1;
+  words_.assign(static_cast<std::size_t>(height_) * words_per_row_, Word{});
   for (int y = 0; y < height_; ++y) {
     const uint8_t* src = binary.ptr<uint8_t>(y);
-    uint16_t* row = prefix_.data() + static_cast<std::size_t>(y) * (width_ + 1);
-    uint16_t sum = 0;
-    row[0] = 0;
-    for (int x = 0; x < width_; ++x) {
-      sum = static_cast<uint16_t>(sum + (src[x] != 0));
-      row[x + 1] = sum;
+    Word* row = words_.data() + static_cast<std::size_t>(y) * words_per_row_;
+    for (int x = 0; x < width_; ++x)
+      if (src[x]) row[x >> 6].bits |= uint64_t{1} << (x & 63);
+    uint32_t running = 0;
+    for (int w = 0; w < words_per_row_; ++w) {
+      row[w].before = running;
+      running += static_cast<uint32_t>(std::popcount(row[w].bits));
     }
   }
 }

@@ -1,7 +1,9 @@
-// A binary silhouette in the form the likelihood consumes: per-row prefix sums, so the foreground
-// pixels of any row interval are counted in O(1) without touching the rest of the frame.
+// A binary silhouette in the form the likelihood consumes: bit-packed rows with a running count per
+// 64-pixel word, so the foreground pixels of any row interval are counted in O(1) (two popcounts)
+// without touching the rest of the frame. 780x580 takes 120 KB, small enough to stay in cache.
 #pragma once
 
+#include <bit>
 #include <cstdint>
 #include <vector>
 
@@ -12,16 +14,15 @@ namespace mocap {
 class SilhouetteMask {
  public:
   SilhouetteMask() = default;
-  // `binary`: CV_8UC1, non-zero = foreground. Throws std::invalid_argument otherwise or if wider
-  // than 65535 pixels.
+  // `binary`: CV_8UC1, non-zero = foreground. Throws std::invalid_argument otherwise.
   explicit SilhouetteMask(const cv::Mat& binary);
 
   int width() const { return width_; }
   int height() const { return height_; }
   // Foreground pixels of row y in columns [x0, x1); requires 0 <= x0 <= x1 <= width, 0 <= y < height.
   int count(int y, int x0, int x1) const {
-    const uint16_t* row = prefix_.data() + static_cast<std::size_t>(y) * (width_ + 1);
-    return row[x1] - row[x0];
+    const Word* row = words_.data() + static_cast<std::size_t>(y) * words_per_row_;
+    return countBefore(row, x1) - countBefore(row, x0);
   }
   // Foreground pixels in the whole mask.
   long total() const;
@@ -29,9 +30,20 @@ class SilhouetteMask {
   cv::Mat toMat() const;
 
  private:
+  struct Word {
+    uint64_t bits = 0;     // bit i = pixel 64 * word + i
+    uint32_t before = 0;   // foreground pixels of the row before this word
+  };
+  static int countBefore(const Word* row, int x) {
+    const Word& w = row[x >> 6];
+    return static_cast<int>(w.before) +
+           std::popcount(w.bits & ((uint64_t{1} << (x & 63)) - 1));
+  }
+
   int width_ = 0;
   int height_ = 0;
-  std::vector<uint16_t> prefix_;  // (width + 1) entries per row, prefix_[y][0] == 0
+  int words_per_row_ = 0;  // width / 64 + 1: column `width` has a word too
+  std::vector<Word> words_;
 };
 
 }  // namespace mocap

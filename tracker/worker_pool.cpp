@@ -1,7 +1,22 @@
-// Worker pool: one job at a time, indices handed out by an atomic counter.
+// Worker pool: one job at a time, indices handed out by an atomic counter. A layer of the filter
+// lasts tens of microseconds, about as long as a sleep/wake round trip, so both sides spin briefly
+// before they block.
 #include "tracker/worker_pool.h"
 
 namespace mocap {
+namespace {
+
+constexpr int kSpinIterations = 20000;  // roughly 20-50 us
+
+inline void cpuRelax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#else
+  std::this_thread::yield();
+#endif
+}
+
+}  // namespace
 
 WorkerPool::WorkerPool(int threads) {
   if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -11,7 +26,7 @@ WorkerPool::WorkerPool(int threads) {
 WorkerPool::~WorkerPool() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    stopping_ = true;
+    stopping_.store(true);
   }
   wake_.notify_all();
   for (std::thread& t : workers_) t.join();
@@ -35,27 +50,39 @@ void WorkerPool::parallelFor(int count, const std::function<void(int, int)>& fn)
     job_ = &fn;
     count_ = count;
     next_.store(0, std::memory_order_relaxed);
-    busy_ = static_cast<int>(workers_.size());
-    ++generation_;
+    busy_.store(static_cast<int>(workers_.size()), std::memory_order_relaxed);
+    generation_.fetch_add(1, std::memory_order_release);
   }
   wake_.notify_all();
   drain(0);
-  std::unique_lock<std::mutex> lock(mutex_);
-  done_.wait(lock, [this] { return busy_ == 0; });
+  for (int spin = 0; spin < kSpinIterations && busy_.load(std::memory_order_acquire) != 0; ++spin)
+    cpuRelax();
+  if (busy_.load(std::memory_order_acquire) != 0) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [this] { return busy_.load(std::memory_order_acquire) == 0; });
+  }
   job_ = nullptr;
 }
 
 void WorkerPool::workerLoop(int worker) {
   unsigned seen = 0;
-  std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
-    wake_.wait(lock, [&] { return stopping_ || generation_ != seen; });
-    if (stopping_) return;
-    seen = generation_;
-    lock.unlock();
+    auto idle = [&] {
+      return !stopping_.load(std::memory_order_acquire) &&
+             generation_.load(std::memory_order_acquire) == seen;
+    };
+    for (int spin = 0; spin < kSpinIterations && idle(); ++spin) cpuRelax();
+    if (idle()) {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return !idle(); });
+    }
+    if (stopping_.load(std::memory_order_acquire)) return;
+    seen = generation_.load(std::memory_order_acquire);
     drain(worker);
-    lock.lock();
-    if (--busy_ == 0) done_.notify_one();
+    if (busy_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_.notify_one();
+    }
   }
 }
 

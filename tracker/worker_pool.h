@@ -35,9 +35,9 @@ class WorkerPool {
   const std::function<void(int, int)>* job_ = nullptr;
   int count_ = 0;
   std::atomic<int> next_{0};
-  int busy_ = 0;             // workers still inside the current job
-  unsigned generation_ = 0;  // bumped per job so workers join each job once
-  bool stopping_ = false;
+  std::atomic<int> busy_{0};             // workers still inside the current job
+  std::atomic<unsigned> generation_{0};  // bumped per job so workers join each job once
+  std::atomic<bool> stopping_{false};
 };
 
 }  // namespace mocap

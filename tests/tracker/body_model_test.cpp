@@ -1,0 +1,107 @@
+// Body model YAML loading: the built-in hand, and errors that name the file, line and field.
+#include "tracker/body_model.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace mocap {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr const char* kTwoSegments = R"(
+name: arm
+segments:
+  - name: upper
+    offset: [0, 0, 1]
+    dofs: [{name: shoulder, axis: [0, 2, 0], min: -90, max: 90, max_speed: 10}]
+    shape: {type: cone, axis: [1, 0, 0], length: 0.3, radius_start: 0.05, radius_end: 0.04}
+    points: [{name: shoulder_point}]
+  - name: lower
+    parent: upper
+    offset: [0.3, 0, 0]
+    dofs:
+      - {name: slide, type: translation, axis: [1, 0, 0], min: 0, max: 0.1, max_speed: 0.01}
+    shape: {type: ellipsoid, center: [0.1, 0, 0], radii: [0.1, 0.03, 0.03]}
+    points: [{name: hand, at: [0.2, 0, 0]}]
+)";
+
+TEST(BodyModel, ParsesSegmentsDofsShapesAndPoints) {
+  const BodyModel m = parseBodyModel(kTwoSegments, "arm.yaml");
+  ASSERT_EQ(m.segments.size(), 2u);
+  ASSERT_EQ(m.dofs.size(), 2u);
+  EXPECT_EQ(m.segments[1].parent, 0);
+  EXPECT_EQ(m.dofs[0].type, DofType::kRotation);
+  EXPECT_NEAR(m.dofs[0].max, M_PI / 2, 1e-12);          // degrees at the edge, radians inside
+  EXPECT_NEAR(m.dofs[0].max_speed, 10 * M_PI / 180, 1e-12);
+  EXPECT_TRUE(m.dofs[0].axis.isApprox(Eigen::Vector3d::UnitY()));  // normalized
+  EXPECT_EQ(m.dofs[1].type, DofType::kTranslation);
+  EXPECT_DOUBLE_EQ(m.dofs[1].max, 0.1);                 // metres stay metres
+  EXPECT_EQ(m.dofs[1].segment, 1);
+  EXPECT_EQ(m.segments[0].shape.type, ShapeType::kTruncatedCone);
+  EXPECT_EQ(m.segments[1].shape.type, ShapeType::kEllipsoid);
+  EXPECT_EQ(m.pointIndex("hand"), 1);
+  EXPECT_TRUE(m.points[1].local.isApprox(Eigen::Vector3d(0.2, 0, 0)));
+  EXPECT_FALSE(m.isStatic(0));
+}
+
+TEST(BodyModel, BuiltInHandHasFifteenDofsInTopologicalOrder) {
+  const BodyModel m = loadBodyModel(std::string(MOCAP_SOURCE_DIR) + "/tracker/models/hand.yaml");
+  EXPECT_EQ(m.dofs.size(), 15u);
+  EXPECT_EQ(m.segments.size(), 16u);
+  EXPECT_TRUE(m.isStatic(0));
+  for (std::size_t s = 1; s < m.segments.size(); ++s) EXPECT_LT(m.segments[s].parent, int(s));
+  EXPECT_GE(m.pointIndex("index_tip"), 0);
+}
+
+std::string errorOf(const std::string& yaml) {
+  try {
+    parseBodyModel(yaml, "bad.yaml");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(BodyModel, ErrorsNameTheFileLineAndField) {
+  std::string bad = kTwoSegments;
+  bad.replace(bad.find("max: 90"), 7, "max: ninety");
+  EXPECT_THAT(errorOf(bad), HasSubstr("bad.yaml:6: segments[0] (upper).dofs[0].max: expected a number, got 'ninety'"));
+
+  bad = kTwoSegments;
+  bad.replace(bad.find("parent: upper"), 13, "parent: nobody");
+  EXPECT_THAT(errorOf(bad), HasSubstr("segments[1] (lower).parent: unknown segment 'nobody'"));
+
+  bad = kTwoSegments;
+  bad.replace(bad.find("length: 0.3, "), 13, "");
+  EXPECT_THAT(errorOf(bad), HasSubstr("segments[0] (upper).shape.length: missing"));
+
+  bad = kTwoSegments;
+  bad.replace(bad.find("type: cone"), 10, "type: cube");
+  EXPECT_THAT(errorOf(bad), HasSubstr("unknown shape 'cube'"));
+
+  bad = kTwoSegments;
+  bad.replace(bad.find("min: -90, max: 90"), 17, "min: 90, max: -90");
+  EXPECT_THAT(errorOf(bad), HasSubstr("(upper).dofs[0]: min is greater than max"));
+
+  EXPECT_THAT(errorOf("segments: [ {name: a"), HasSubstr("bad.yaml:1: not valid YAML"));
+  EXPECT_THAT(errorOf("name: x"), HasSubstr("(top).segments: missing"));
+}
+
+TEST(BodyModel, MissingFileIsNamed) {
+  EXPECT_THROW(
+      {
+        try {
+          loadBodyModel("/nonexistent/model.yaml");
+        } catch (const std::runtime_error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("/nonexistent/model.yaml"));
+          throw;
+        }
+      },
+      std::runtime_error);
+}
+
+}  // namespace
+}  // namespace mocap
