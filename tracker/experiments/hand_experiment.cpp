@@ -3,7 +3,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <iostream>
 
+#include "tracker/experiments/args.h"
+#include "tracker/experiments/commands.h"
 #include "tracker/experiments/metrics.h"
 #include "tracker/hand_model_yaml.h"
 #include "tracker/kinematics.h"
@@ -107,6 +110,38 @@ nlohmann::json runHandExperiment(const HandExperimentConfig& config) {
        tip >= 0 && relative[tip] >= 0 ? nlohmann::json(relative[tip]) : nlohmann::json()},
       {"seconds_per_frame", tracking_seconds / frames},
   };
+}
+
+}  // namespace mocap
+
+namespace mocap {
+
+int runHandCommand(int argc, char** argv) {
+  const Args args(argc, argv, 2,
+                  {"method", "evals", "frames", "seed", "cameras", "motion", "model", "threads",
+                   "keep", "samples", "injection", "beta"},
+                  {"describe"});
+  if (args.has("describe")) {
+    const BodyModel model =
+        args.has("model") ? loadBodyModel(args.text("model", "")) : builtinHandModel();
+    std::cout << describeModel(model).dump(2) << "\n";
+    return 0;
+  }
+  HandExperimentConfig config;
+  config.method = args.text("method", "factored");
+  config.evaluations = static_cast<int>(args.integer("evals", 375, 1, 10'000'000));
+  config.frames = static_cast<int>(args.integer("frames", 200, 1, 1'000'000));
+  config.seed = static_cast<uint64_t>(args.integer("seed", 1, 0, 1L << 62));
+  config.cameras = static_cast<int>(args.integer("cameras", 3, 1, 16));
+  config.motion_path = args.text("motion", "");
+  config.model_path = args.text("model", "");
+  config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
+  config.filter.keep = static_cast<int>(args.integer("keep", config.filter.keep, 1, 100000));
+  config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));
+  config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
+  config.filter.likelihood.beta = args.real("beta", config.filter.likelihood.beta, 1e-9, 1e3);
+  std::cout << runHandExperiment(config).dump(2) << "\n";
+  return 0;
 }
 
 }  // namespace mocap
