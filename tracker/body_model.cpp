@@ -179,6 +179,15 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
     }
     model.segments.push_back(seg);
   }
+  if (YAML::Node gait = root["gait_dofs"]) {
+    if (!gait.IsSequence()) p.fail(gait, "gait_dofs", "expected a list of DOF names");
+    for (std::size_t k = 0; k < gait.size(); ++k) {
+      const std::string path = "gait_dofs[" + std::to_string(k) + "]";
+      std::string name = p.text(gait[k], path);
+      if (model.dofIndex(name) < 0) p.fail(gait[k], path, "unknown DOF '" + name + "'");
+      model.gait_dofs.push_back(name);
+    }
+  }
   return model;
 }
 
@@ -216,8 +225,22 @@ Eigen::VectorXd BodyModel::neutralPose() const {
 
 bool BodyModel::isStatic(int s) const {
   for (; s >= 0; s = segments[s].parent)
-    if (!segments[s].dofs.empty()) return false;
+    for (int d : segments[s].dofs)
+      if (dofs[d].isFree()) return false;
   return true;
+}
+
+BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& free_dofs,
+                       const Eigen::VectorXd& pose) {
+  for (const std::string& name : free_dofs)
+    if (model.dofIndex(name) < 0) throw std::invalid_argument("unknown DOF '" + name + "'");
+  BodyModel out = model;
+  for (std::size_t d = 0; d < out.dofs.size(); ++d) {
+    Dof& dof = out.dofs[d];
+    if (std::find(free_dofs.begin(), free_dofs.end(), dof.name) != free_dofs.end()) continue;
+    dof.min = dof.max = pose[static_cast<long>(d)];
+  }
+  return out;
 }
 
 }  // namespace mocap

@@ -20,6 +20,8 @@ struct Dof {
   double max = 0;
   double max_speed = 0;  // largest change in one frame (radians or metres per frame)
   int segment = -1;      // the segment this DOF moves
+  // A DOF whose limits coincide is frozen: the filters neither sample nor count it.
+  bool isFree() const { return max > min; }
 };
 
 enum class ShapeType { kNone, kTruncatedCone, kEllipsoid };
@@ -58,15 +60,21 @@ class BodyModel {
   std::vector<Segment> segments;  // parents always precede their children
   std::vector<Dof> dofs;          // in segment order: the DBN's hidden-variable order
   std::vector<BodyPoint> points;
+  std::vector<std::string> gait_dofs;  // optional subset: the DOFs gait is based on (paper §8.4)
 
   int segmentIndex(const std::string& segment_name) const;  // -1 if absent
   int dofIndex(const std::string& dof_name) const;          // -1 if absent
   int pointIndex(const std::string& point_name) const;      // -1 if absent
   // The DOF vector with every DOF at the nearest in-range value to zero.
   Eigen::VectorXd neutralPose() const;
-  // True if segment `s` never moves (it and all its ancestors have no DOFs).
+  // True if segment `s` never moves (it and all its ancestors have no free DOFs).
   bool isStatic(int s) const;
 };
+
+// A copy of `model` in which every DOF not named in `free_dofs` is frozen at its value in `pose`.
+// Throws std::invalid_argument for an unknown name.
+BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& free_dofs,
+                       const Eigen::VectorXd& pose);
 
 // Parses a body model from YAML text. `source` names the file in error messages. Throws
 // std::runtime_error with "<source>:<line>: <field path>: <reason>" on any bad input.

@@ -123,8 +123,14 @@ class FactoredFilter final : public PoseFilter {
       if (seg.shape.type == ShapeType::kNone)
         throw std::invalid_argument("factored filter: segment '" + seg.name +
                                     "' moves but has no shape, so nothing observes it");
-      if (seg.dofs.empty()) layers_.push_back({si, -1});
-      for (int d : seg.dofs) layers_.push_back({si, d});
+      int free_count = 0;
+      for (int d : seg.dofs) {
+        if (!model_.dofs[d].isFree()) continue;
+        layers_.push_back({si, d});
+        ++free_count;
+      }
+      // Moved only by its ancestors: observed once so the chain masks what it explains.
+      if (free_count == 0) layers_.push_back({si, -1});
     }
   }
 

@@ -17,12 +17,38 @@ std::unique_ptr<PoseFilter> makeFilter(const std::string& method, const BodyMode
     throw std::invalid_argument("filter: evaluations per frame must be positive");
   if (method == "factored") return makeFactoredFilter(model, rig, options, pool);
   if (method == "condensation") return makeCondensationFilter(model, rig, options, pool);
+  if (method == "annealed") return makeAnnealedFilter(model, rig, options, pool);
   throw std::invalid_argument("unknown filter method '" + method +
-                              "' (expected factored or condensation)");
+                              "' (expected factored, condensation or annealed)");
 }
 
 std::pair<double, double> proposalInterval(const Dof& dof, double value) {
   return {std::max(dof.min, value - dof.max_speed), std::min(dof.max, value + dof.max_speed)};
+}
+
+void resampleSystematic(const std::vector<double>& log_weights,
+                        std::vector<Eigen::VectorXd>& particles, std::mt19937_64& rng) {
+  const std::size_t n = particles.size();
+  const double best = *std::max_element(log_weights.begin(), log_weights.end());
+  std::vector<double> cdf(n);
+  double sum = 0;
+  for (std::size_t i = 0; i < n; ++i) cdf[i] = sum += std::exp(log_weights[i] - best);
+  const double offset = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+  std::vector<Eigen::VectorXd> next(n);
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double target = (i + offset) / n * sum;
+    while (j + 1 < n && cdf[j] < target) ++j;
+    next[i] = particles[j];
+  }
+  particles.swap(next);
+}
+
+void diffuseUniform(const BodyModel& model, Eigen::VectorXd& q, std::mt19937_64& rng) {
+  for (std::size_t d = 0; d < model.dofs.size(); ++d) {
+    const auto [lo, hi] = proposalInterval(model.dofs[d], q[d]);
+    if (hi > lo) q[d] = std::uniform_real_distribution<double>(lo, hi)(rng);
+  }
 }
 
 void weightedEstimate(const std::vector<const Eigen::VectorXd*>& particles,

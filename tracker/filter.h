@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,17 @@ std::unique_ptr<PoseFilter> makeFactoredFilter(const BodyModel& model, const Rig
                                                const FilterOptions& options, WorkerPool& pool);
 std::unique_ptr<PoseFilter> makeCondensationFilter(const BodyModel& model, const Rig& rig,
                                                    const FilterOptions& options, WorkerPool& pool);
+
+std::unique_ptr<PoseFilter> makeAnnealedFilter(const BodyModel& model, const Rig& rig,
+                                               const FilterOptions& options, WorkerPool& pool);
+
+// Systematic resampling: replaces `particles` by a draw proportional to exp(log_weights) (one
+// uniform offset, N equally spaced pointers into the CDF).
+void resampleSystematic(const std::vector<double>& log_weights,
+                        std::vector<Eigen::VectorXd>& particles, std::mt19937_64& rng);
+
+// Moves every DOF of q to a uniform sample of its proposal interval (see proposalInterval).
+void diffuseUniform(const BodyModel& model, Eigen::VectorXd& q, std::mt19937_64& rng);
 
 // Shared by the filters: the weighted mean and spread of a set of DOF vectors with log-weights.
 void weightedEstimate(const std::vector<const Eigen::VectorXd*>& particles,

@@ -105,3 +105,28 @@ TEST(BodyModel, MissingFileIsNamed) {
 
 }  // namespace
 }  // namespace mocap
+
+namespace mocap {
+namespace {
+
+TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
+  const BodyModel m = loadBodyModel(std::string(MOCAP_SOURCE_DIR) + "/tracker/models/human.yaml");
+  EXPECT_EQ(m.dofs.size(), 31u);
+  EXPECT_EQ(m.points.size(), 19u);
+  EXPECT_EQ(m.gait_dofs.size(), 17u);
+  // Four branches leave the trunk: the legs from the pelvis, head and arms from the chest.
+  const int pelvis = m.segmentIndex("pelvis"), chest = m.segmentIndex("chest");
+  int from_trunk = 0;
+  for (const Segment& s : m.segments) from_trunk += (s.parent == pelvis || s.parent == chest);
+  EXPECT_EQ(from_trunk, 6);  // chest, 2 thighs, head, 2 upper arms
+
+  const BodyModel gait = freezeAllBut(m, m.gait_dofs, m.neutralPose());
+  int free = 0;
+  for (const Dof& d : gait.dofs) free += d.isFree();
+  EXPECT_EQ(free, 17);
+  EXPECT_FALSE(gait.isStatic(m.segmentIndex("l_forearm")));  // still moved by the trunk
+  EXPECT_THROW(freezeAllBut(m, {"no_such_dof"}, m.neutralPose()), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mocap

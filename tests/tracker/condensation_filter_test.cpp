@@ -40,8 +40,11 @@ TEST(CondensationFilter, ResultsDoNotDependOnTheThreadCount) {
     filter->reset(motion[0]);
     for (std::size_t f = 0; f < motion.size(); ++f) {
       const Eigen::VectorXd q = filter->step(scene.masks(motion[f])).q;
-      if (threads == 1) first.push_back(q);
-      else EXPECT_EQ(q, first[f]) << "frame " << f;
+      if (threads == 1) {
+        first.push_back(q);
+      } else {
+        EXPECT_EQ(q, first[f]) << "frame " << f;
+      }
     }
   }
 }

@@ -84,6 +84,23 @@ TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {
   EXPECT_LT(mcpErrorAfter(0.1, 4), 10.0);
 }
 
+TEST(FactoredFilter, FrozenDofsGetNoLayersAndKeepTheirValue) {
+  HandScene scene;
+  const Eigen::VectorXd truth = generateMotion(scene.model, 1, 2)[0];
+  const BodyModel index_only =
+      freezeAllBut(scene.model, {"index_mcp_flex", "index_pip_flex", "index_dip_flex"}, truth);
+  WorkerPool pool(1);
+  FilterOptions options;
+  auto filter = makeFilter("factored", index_only, scene.rig, options, pool);
+  filter->reset(scene.perturbed(truth, 1.0));
+  const FrameEstimate e = filter->step(scene.masks(truth));
+  EXPECT_EQ(e.evaluations, 375);  // 3 layers of 125 candidates: the budget goes to the free DOFs
+  for (std::size_t d = 0; d < index_only.dofs.size(); ++d) {
+    if (index_only.dofs[d].isFree()) continue;
+    EXPECT_EQ(e.q[d], truth[d]) << index_only.dofs[d].name;
+  }
+}
+
 TEST(FactoredFilter, RejectsAMovingSegmentWithoutShape) {
   const BodyModel m = parseBodyModel(R"(
 segments:

@@ -1,0 +1,53 @@
+// The annealed particle filter: it spends its budget over its layers, approaches a static pose, and
+// is deterministic across thread counts for a seed.
+#include <gtest/gtest.h>
+
+#include "tests/tracker/filter_test_support.h"
+#include "tracker/filter.h"
+#include "tracker/motion.h"
+
+namespace mocap {
+namespace {
+
+using testing_support::HandScene;
+
+TEST(AnnealedFilter, ApproachesAStaticPoseAndSpendsItsBudget) {
+  HandScene scene;
+  const Eigen::VectorXd truth = generateMotion(scene.model, 1, 9)[0];
+  const auto masks = scene.masks(truth);
+  WorkerPool pool(2);
+  FilterOptions options;
+  options.evaluations_per_frame = 400;
+  options.annealing_layers = 4;
+  auto filter = makeFilter("annealed", scene.model, scene.rig, options, pool);
+  const Eigen::VectorXd start = scene.perturbed(truth, 2.0);
+  const double start_error = scene.pointError(start, truth);
+  filter->reset(start);
+  FrameEstimate e;
+  for (int f = 0; f < 12; ++f) e = filter->step(masks);
+  EXPECT_EQ(e.evaluations, 400);  // 4 layers x 100 particles
+  EXPECT_LT(scene.pointError(e.q, truth), 0.5 * start_error);
+}
+
+TEST(AnnealedFilter, ResultsDoNotDependOnTheThreadCount) {
+  HandScene scene;
+  const Motion motion = generateMotion(scene.model, 3, 4);
+  std::vector<Eigen::VectorXd> first;
+  for (int threads : {1, 2}) {
+    WorkerPool pool(threads);
+    FilterOptions options;
+    auto filter = makeFilter("annealed", scene.model, scene.rig, options, pool);
+    filter->reset(motion[0]);
+    for (std::size_t f = 0; f < motion.size(); ++f) {
+      const Eigen::VectorXd q = filter->step(scene.masks(motion[f])).q;
+      if (threads == 1) {
+        first.push_back(q);
+      } else {
+        EXPECT_EQ(q, first[f]) << "frame " << f;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mocap

@@ -1,0 +1,46 @@
+// The learned appearance of the empty scene, per pixel: mean and standard deviation of each channel
+// over N frames, for 8-bit gray or BGR cameras. Learned once (CaptureBackground), saved beside the
+// calibration so a restarted daemon can extract silhouettes without a new capture.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+namespace mocap {
+
+struct BackgroundModel {
+  cv::Mat mean;    // CV_32FC1 or CV_32FC3, the frame's size
+  cv::Mat stddev;  // same type and size as mean
+
+  bool empty() const { return mean.empty(); }
+  int channels() const { return mean.channels(); }
+  cv::Size size() const { return mean.size(); }
+};
+
+// Accumulates empty-scene frames one at a time (so a capture never holds N frames in memory).
+class BackgroundLearner {
+ public:
+  // `frame`: CV_8UC1 or CV_8UC3, same size and type as the first one added. Returns false (and
+  // leaves the learner unchanged) on a mismatch.
+  bool add(const cv::Mat& frame);
+  int frames() const { return frames_; }
+  // The model learned so far; throws std::logic_error if no frame was added.
+  BackgroundModel model() const;
+  void clear();
+
+ private:
+  cv::Mat sum_, sum_squares_;  // CV_64FC(c): float sums lose precision past a few hundred frames
+  int frames_ = 0;
+};
+
+BackgroundModel learnBackground(const std::vector<cv::Mat>& frames);
+
+// OpenCV FileStorage (YAML or XML by extension, ".gz" appended compresses), matrices in base64.
+// saveBackground throws std::runtime_error naming the file; loadBackground throws
+// std::runtime_error naming the file and the field at fault.
+void saveBackground(const std::string& path, const BackgroundModel& model);
+BackgroundModel loadBackground(const std::string& path);
+
+}  // namespace mocap

@@ -1,0 +1,110 @@
+// Per-camera silhouette extraction against a learned background (paper §8.1: background
+// subtraction then a threshold), with global-gain compensation, shadow suppression, cleanup and an
+// optional slow adaptation of the background. One extractor per camera; not thread-safe, called
+// by that camera's pipeline thread only. No allocation per frame after the first one (except
+// inside OpenCV's contour finder and the SilhouetteMask constructor).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "tracker/silhouette_mask.h"
+#include "tracker/vision/background_model.h"
+
+namespace mocap {
+
+struct SilhouetteOptions {
+  // A pixel changed when a channel leaves mean +- max(threshold_sigmas * stddev, min_difference).
+  float threshold_sigmas = 4.0f;
+  float min_difference = 9.0f;  // gray levels; floors the noise a short capture underestimates
+
+  // Shadows darken the background by a factor in [shadow_min_ratio, shadow_max_ratio]; BGR: the
+  // colour stays that of the background within chroma_sigmas * stddev + chroma_ratio * brightness;
+  // gray: the 3x3 neighbourhood stays the background's texture scaled by the same factor, within
+  // texture_sigmas * stddev per pixel.
+  bool suppress_shadows = true;
+  float shadow_min_ratio = 0.35f;
+  float shadow_max_ratio = 0.97f;
+  float shadow_chroma_sigmas = 3.0f;
+  float shadow_chroma_ratio = 0.06f;
+  float shadow_texture_sigmas = 2.5f;
+
+  // Cleanup: opening removes speckle, closing bridges thin gaps; then connected regions smaller than
+  // min_blob_fraction of the image are dropped and holes smaller than max_hole_fraction filled.
+  int open_radius = 1;
+  int close_radius = 2;
+  double min_blob_fraction = 0.0005;
+  double max_hole_fraction = 0.01;
+
+  // Global gain: the frame's brightness relative to the background, estimated every frame on a
+  // sparse grid of pixels that were background in the previous frame.
+  bool compensate_gain = true;
+  int gain_sample_step = 8;
+
+  // Adaptation: every adapt_interval frames, background pixels (unchanged ones only: never a
+  // person, a shadow, or anything that differs) are blended into the mean with adapt_rate.
+  bool adaptive = true;
+  int adapt_interval = 8;
+  float adapt_rate = 0.05f;
+
+  // Pixels outside the region of interest are never foreground; empty: the whole frame.
+  cv::Rect region_of_interest;
+
+  // Also build the bit-packed SilhouetteMask the likelihood consumes.
+  bool build_silhouette_mask = true;
+};
+
+class SilhouetteExtractor {
+ public:
+  // Throws std::invalid_argument if the model is empty/inconsistent or the options out of range.
+  explicit SilhouetteExtractor(BackgroundModel background, SilhouetteOptions options = {});
+
+  // Classifies one frame: CV_8UC1 or CV_8UC3 matching the background. Returns false with
+  // lastError() set on a mismatch (the frame path never throws).
+  bool extract(const cv::Mat& frame);
+
+  // Of the last successful extract(): 0/255 foreground at the frame's size, and the same as a mask.
+  const cv::Mat& foreground() const { return foreground_; }
+  const SilhouetteMask& silhouette() const { return silhouette_; }
+  // 255 where a changed pixel was explained as shadow (before cleanup), for display and tests.
+  const cv::Mat& shadows() const { return shadow_; }
+  double gain() const { return gain_; }
+  const BackgroundModel& background() const { return background_; }
+  const SilhouetteOptions& options() const { return options_; }
+  const std::string& lastError() const { return error_; }
+
+  // Replaces the background (e.g. after a new capture) and restarts the gain and adaptation.
+  void setBackground(BackgroundModel background);
+
+ private:
+  void rebuildBounds();
+  void estimateGain(const cv::Mat& frame);
+  void classifyColor();
+  void classifyGray();
+  void cleanup();
+  void adapt();
+
+  BackgroundModel background_;
+  SilhouetteOptions options_;
+  cv::Rect roi_;
+  cv::Mat margin_;        // per channel: max(threshold_sigmas * stddev, min_difference)
+  cv::Mat pixel_sigma_;   // CV_32FC1: mean stddev over channels
+  cv::Mat lower_, upper_; // CV_8UC(c): the unchanged range of each channel
+  cv::Mat normalized_;    // the frame's region of interest divided by the gain
+  cv::Mat unchanged_;     // 255 where every channel is in range
+  cv::Mat candidates_;    // changed and not shadow, before cleanup
+  cv::Mat cleaned_;
+  cv::Mat foreground_, shadow_;
+  cv::Mat open_kernel_, close_kernel_;
+  std::vector<std::vector<cv::Point>> contours_;
+  std::vector<cv::Vec4i> hierarchy_;
+  std::vector<float> gain_samples_;
+  SilhouetteMask silhouette_;
+  double gain_ = 1.0;
+  long frame_count_ = 0;
+  std::string error_;
+};
+
+}  // namespace mocap
