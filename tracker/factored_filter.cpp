@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "tracker/filter.h"
+#include "tracker/full_body.h"
 #include "tracker/kinematics.h"
 
 namespace mocap {
@@ -21,7 +22,8 @@ namespace {
 
 struct Layer {
   int segment = -1;
-  int dof = -1;  // -1: observation only (a DOF-less segment moved by its ancestors)
+  int dof = -1;             // -1: observation only (a DOF-less segment moved by its ancestors)
+  bool whole_body = false;  // weighed by the whole body (the root's layers, see FilterOptions)
 };
 
 // A segment placed in one particle's chain: its world pose and footprints (one per camera).
@@ -59,6 +61,9 @@ class FactoredFilter final : public PoseFilter {
     if (options.injection_share < 0 || options.injection_share >= 1)
       throw std::invalid_argument("factored filter: injection share must be in [0, 1)");
     buildLayers();
+    if (std::any_of(layers_.begin(), layers_.end(), [](const Layer& l) { return l.whole_body; }))
+      body_ = std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle,
+                                                  pool.size());
     const int sampling_layers = static_cast<int>(
         std::count_if(layers_.begin(), layers_.end(), [](const Layer& l) { return l.dof >= 0; }));
     const int observation_layers = static_cast<int>(layers_.size()) - sampling_layers;
@@ -104,7 +109,7 @@ class FactoredFilter final : public PoseFilter {
       const int count = generateCandidates(layer, injection_debt);
       pool_.parallelFor(count, [&](int i, int worker) { evaluate(layer, i, masks, worker); });
       estimate.evaluations += count;
-      estimate.segment_renders += count;
+      estimate.segment_renders += static_cast<long>(count) * (layer.whole_body ? 1 + body_->drawnSegments() : 1);
       keepBest(layer, count);
     }
     finishFrame(estimate);
@@ -126,7 +131,7 @@ class FactoredFilter final : public PoseFilter {
       int free_count = 0;
       for (int d : seg.dofs) {
         if (!model_.dofs[d].isFree()) continue;
-        layers_.push_back({si, d});
+        layers_.push_back({si, d, seg.parent < 0 && options_.root_observes_body});
         ++free_count;
       }
       // Moved only by its ancestors: observed once so the chain masks what it explains.
@@ -232,9 +237,10 @@ class FactoredFilter final : public PoseFilter {
     }
     RowSpan* spans[kMaxCameras];
     for (std::size_t c = 0; c < rig_.size(); ++c) spans[c] = candidateSpans(i, c);
-    const PixelCounts counts =
+    PixelCounts counts =
         observeSegment(model_.segments[s].shape, cand.pose, rig_, masks, scratch.rasterizer, spans,
                        candidateFootprints(i), scratch.explained);
+    if (layer.whole_body) counts = body_->evaluate(cand.q, masks, worker);
     cand.log_weight += logLikelihood(options_.likelihood, counts);
   }
 
@@ -302,6 +308,7 @@ class FactoredFilter final : public PoseFilter {
   std::vector<RowSpan> span_arena_;
   std::size_t arena_used_ = 0;
   std::vector<WorkerScratch> scratch_;
+  std::unique_ptr<FullBodyEvaluator> body_;  // for whole-body layers
 };
 
 }  // namespace

@@ -27,6 +27,9 @@ struct FilterOptions {
   int keep = 5;                   // factored: K best candidates kept per layer
   int samples = 0;                // factored: S samples per interval; 0 = derived from the budget
   double injection_share = 0.02;  // factored: share of candidates from the static distribution
+  // factored: weigh the root's DOF layers by the whole body at its previous relative pose rather
+  // than by the root segment alone, which can slide inside the silhouette at no cost.
+  bool root_observes_body = true;
   int annealing_layers = 5;       // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;

@@ -25,6 +25,9 @@ void SceneRenderer::renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::
     images[c].create(rig_[c].height, rig_[c].width, CV_8UC1);
     images[c].setTo(0);
     for (std::size_t s = 0; s < model_.segments.size(); ++s) {
+      if (std::find(hidden_.begin(), hidden_.end(),
+                    std::pair<int, int>(static_cast<int>(c), static_cast<int>(s))) != hidden_.end())
+        continue;
       const Footprint f = rasterizer_.rasterize(model_.segments[s].shape, kinematics_.world[s],
                                                 rig_[c], spans_.data());
       fillFootprint(images[c], f, 255);

@@ -24,6 +24,9 @@ class SceneRenderer {
   std::vector<cv::Mat> renderSilhouettes(const Eigen::VectorXd& q);
   // Renders into existing images (resized if needed) to avoid reallocation per frame.
   void renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::Mat>& images);
+  // Leaves segment `segment` out of camera `camera`'s silhouette until cleared (a missed limb).
+  void hideSegment(int camera, int segment) { hidden_.emplace_back(camera, segment); }
+  void clearHidden() { hidden_.clear(); }
 
  private:
   const BodyModel& model_;
@@ -31,6 +34,7 @@ class SceneRenderer {
   KinematicsData kinematics_;
   ShapeRasterizer rasterizer_;
   std::vector<RowSpan> spans_;
+  std::vector<std::pair<int, int>> hidden_;  // (camera, segment)
 };
 
 // Sets every pixel of `footprint` in `image` (CV_8UC1) to `value`.
