@@ -14,7 +14,6 @@
 #include <stdexcept>
 
 #include "tracker/filter.h"
-#include "tracker/full_body.h"
 #include "tracker/kinematics.h"
 
 namespace mocap {
@@ -23,7 +22,7 @@ namespace {
 struct Layer {
   int segment = -1;
   int dof = -1;             // -1: observation only (a DOF-less segment moved by its ancestors)
-  bool whole_body = false;  // weighed by the whole body (the root's layers, see FilterOptions)
+  bool lookahead = false;   // ranked by the segment's subtree (see FilterOptions::Lookahead)
 };
 
 // A segment placed in one particle's chain: its world pose and footprints (one per camera).
@@ -40,16 +39,38 @@ struct Particle {
 
 struct Candidate {
   Eigen::VectorXd q;
-  double log_weight = 0;
+  double log_weight = 0;  // parent's weight times this layer's segment factor
+  double selection = 0;   // what the layer ranks by: log_weight, or the whole-body look-ahead
   int parent = 0;
   Eigen::Isometry3d pose;
 };
 
+// For Lookahead::kBody, per parent particle and layer: the segments it has not placed yet (outside
+// the layer's subtree) at their previous pose, after the placed ones.
+struct RestOfBody {
+  RestOfBody(std::size_t cameras, std::size_t segments, int max_rows)
+      : explained(cameras), spans(segments * cameras * max_rows) {}
+  std::vector<std::vector<Footprint>> explained;  // per camera: placed, then rest
+  std::vector<RowSpan> spans;                     // the rest's footprints
+  PixelCounts counts;                             // of the rest
+  long renders = 0;
+};
+
 struct WorkerScratch {
-  explicit WorkerScratch(int points_per_circle, std::size_t cameras)
-      : rasterizer(points_per_circle), explained(cameras) {}
+  WorkerScratch(const BodyModel& model, int points_per_circle, std::size_t cameras,
+                std::size_t segments, int max_rows)
+      : kinematics(model),
+        rasterizer(points_per_circle),
+        explained(cameras),
+        footprints(cameras),
+        poses(segments),
+        lookahead_spans(segments * cameras * max_rows) {}
+  KinematicsData kinematics;
   ShapeRasterizer rasterizer;
   std::vector<std::vector<Footprint>> explained;  // per camera
+  std::vector<Footprint> footprints;              // per camera, of the descendant being looked at
+  std::vector<Eigen::Isometry3d> poses;           // per segment, for the look-ahead
+  std::vector<RowSpan> lookahead_spans;           // per descendant, per camera, max_rows each
 };
 
 class FactoredFilter final : public PoseFilter {
@@ -60,10 +81,8 @@ class FactoredFilter final : public PoseFilter {
     if (options.keep < 1) throw std::invalid_argument("factored filter: keep must be >= 1");
     if (options.injection_share < 0 || options.injection_share >= 1)
       throw std::invalid_argument("factored filter: injection share must be in [0, 1)");
+    findDescendants();
     buildLayers();
-    if (std::any_of(layers_.begin(), layers_.end(), [](const Layer& l) { return l.whole_body; }))
-      body_ = std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle,
-                                                  pool.size());
     const int sampling_layers = static_cast<int>(
         std::count_if(layers_.begin(), layers_.end(), [](const Layer& l) { return l.dof >= 0; }));
     const int observation_layers = static_cast<int>(layers_.size()) - sampling_layers;
@@ -85,7 +104,9 @@ class FactoredFilter final : public PoseFilter {
     // Reserved once: footprints point into this arena, so it must never reallocate.
     span_arena_.resize(max_nodes * rig.size() * max_rows_);
     for (int w = 0; w < pool.size(); ++w)
-      scratch_.emplace_back(options.likelihood.points_per_circle, rig.size());
+      scratch_.emplace_back(model, options.likelihood.points_per_circle, rig.size(),
+                            model.segments.size(), max_rows_);
+    for (int k = 0; k < options.keep; ++k) rest_.emplace_back(rig.size(), model.segments.size(), max_rows_);
   }
 
   std::string name() const override { return "factored"; }
@@ -107,9 +128,15 @@ class FactoredFilter final : public PoseFilter {
     double injection_debt = 0;
     for (const Layer& layer : layers_) {
       const int count = generateCandidates(layer, injection_debt);
+      if (layer.lookahead && options_.lookahead == FilterOptions::Lookahead::kBody) {
+        const int parents = static_cast<int>(particles_.size());
+        pool_.parallelFor(parents, [&](int p, int worker) { placeRest(layer, p, masks, worker); });
+        for (const RestOfBody& rest : rest_) estimate.segment_renders += rest.renders;
+      }
       pool_.parallelFor(count, [&](int i, int worker) { evaluate(layer, i, masks, worker); });
       estimate.evaluations += count;
-      estimate.segment_renders += static_cast<long>(count) * (layer.whole_body ? 1 + body_->drawnSegments() : 1);
+      estimate.segment_renders +=
+          static_cast<long>(count) * (layer.lookahead ? descendants_[layer.segment].size() + 1 : 1);
       keepBest(layer, count);
     }
     finishFrame(estimate);
@@ -131,11 +158,30 @@ class FactoredFilter final : public PoseFilter {
       int free_count = 0;
       for (int d : seg.dofs) {
         if (!model_.dofs[d].isFree()) continue;
-        layers_.push_back({si, d, seg.parent < 0 && options_.root_observes_body});
+        layers_.push_back({si, d, usesLookahead(si)});
         ++free_count;
       }
       // Moved only by its ancestors: observed once so the chain masks what it explains.
-      if (free_count == 0) layers_.push_back({si, -1});
+      if (free_count == 0) layers_.push_back({si, -1, false});
+    }
+  }
+
+  bool usesLookahead(int s) const {
+    switch (options_.lookahead) {
+      case FilterOptions::Lookahead::kNone: return false;
+      case FilterOptions::Lookahead::kRoot: return model_.segments[s].parent < 0;
+      case FilterOptions::Lookahead::kSubtree: return !descendants_[s].empty();
+      case FilterOptions::Lookahead::kBody: return true;
+    }
+    return false;
+  }
+
+  // Every segment's descendants, in model order.
+  void findDescendants() {
+    descendants_.assign(model_.segments.size(), {});
+    for (std::size_t d = 0; d < model_.segments.size(); ++d) {
+      for (int a = model_.segments[d].parent; a >= 0; a = model_.segments[a].parent)
+        descendants_[a].push_back(static_cast<int>(d));
     }
   }
 
@@ -237,11 +283,87 @@ class FactoredFilter final : public PoseFilter {
     }
     RowSpan* spans[kMaxCameras];
     for (std::size_t c = 0; c < rig_.size(); ++c) spans[c] = candidateSpans(i, c);
-    PixelCounts counts =
+    const PixelCounts counts =
         observeSegment(model_.segments[s].shape, cand.pose, rig_, masks, scratch.rasterizer, spans,
                        candidateFootprints(i), scratch.explained);
-    if (layer.whole_body) counts = body_->evaluate(cand.q, masks, worker);
     cand.log_weight += logLikelihood(options_.likelihood, counts);
+    cand.selection = cand.log_weight;
+    if (!layer.lookahead) return;
+    if (options_.lookahead != FilterOptions::Lookahead::kBody) {
+      cand.selection = parent.log_weight +
+                       logLikelihood(options_.likelihood, counts + lookAhead(s, cand, i, masks, scratch));
+      return;
+    }
+    // The whole body: the parent's placed segments and the rest at their previous pose (counted
+    // once per parent), then this candidate's segment and subtree over what those explain.
+    const RestOfBody& rest = rest_[cand.parent];
+    PixelCounts total = rest.counts;
+    for (std::size_t c = 0; c < rig_.size(); ++c) {
+      scratch.explained[c] = rest.explained[c];
+      total += countFootprint(masks[c], candidateFootprints(i)[c], scratch.explained[c].data(),
+                              static_cast<int>(scratch.explained[c].size()));
+    }
+    cand.selection = parent.log_weight +
+                     logLikelihood(options_.likelihood, total + lookAhead(s, cand, i, masks, scratch));
+  }
+
+  // For kBody: places every segment of parent particle p that is neither placed this frame nor in
+  // the layer segment's subtree at its previous relative pose, and counts them after the placed
+  // ones. The same for all of p's candidates, so done once per parent.
+  void placeRest(const Layer& layer, int p, const std::vector<SilhouetteMask>& masks, int worker) {
+    const Particle& parent = particles_[p];
+    RestOfBody& rest = rest_[p];
+    WorkerScratch& scratch = scratch_[worker];
+    forwardKinematics(model_, scratch.kinematics, parent.q);
+    rest.counts = PixelCounts();
+    rest.renders = 0;
+    for (std::size_t c = 0; c < rig_.size(); ++c) {
+      rest.explained[c].clear();
+      for (std::size_t j = 0; j < parent.node.size(); ++j) {
+        if (static_cast<int>(j) == layer.segment || parent.node[j] < 0) continue;
+        rest.explained[c].push_back(node_footprints_[nodes_[parent.node[j]].first_footprint + c]);
+      }
+    }
+    const std::vector<int>& below = descendants_[layer.segment];
+    RowSpan* spans[kMaxCameras];
+    int k = 0;
+    for (std::size_t j = 0; j < model_.segments.size(); ++j) {
+      const int o = static_cast<int>(j);
+      if (o == layer.segment || parent.node[o] >= 0 ||
+          model_.segments[o].shape.type == ShapeType::kNone ||
+          std::find(below.begin(), below.end(), o) != below.end())
+        continue;
+      for (std::size_t c = 0; c < rig_.size(); ++c)
+        spans[c] = &rest.spans[(k * rig_.size() + c) * max_rows_];
+      rest.counts += observeSegment(model_.segments[o].shape, scratch.kinematics.world[o], rig_, masks,
+                                    scratch.rasterizer, spans, scratch.footprints.data(), rest.explained);
+      for (std::size_t c = 0; c < rig_.size(); ++c) rest.explained[c].push_back(scratch.footprints[c]);
+      ++rest.renders;
+      ++k;
+    }
+  }
+
+  // The descendants of the candidate's segment at their previous relative pose, each counted
+  // through the masked chain after the segment itself and the descendants before it.
+  PixelCounts lookAhead(int s, const Candidate& cand, int i,
+                        const std::vector<SilhouetteMask>& masks, WorkerScratch& scratch) {
+    for (std::size_t c = 0; c < rig_.size(); ++c)
+      scratch.explained[c].push_back(candidateFootprints(i)[c]);
+    scratch.poses[s] = cand.pose;
+    PixelCounts total;
+    RowSpan* spans[kMaxCameras];
+    const std::vector<int>& below = descendants_[s];
+    for (std::size_t k = 0; k < below.size(); ++k) {
+      const int d = below[k];
+      scratch.poses[d] = scratch.poses[model_.segments[d].parent] * localTransform(model_, d, cand.q);
+      for (std::size_t c = 0; c < rig_.size(); ++c)
+        spans[c] = &scratch.lookahead_spans[(k * rig_.size() + c) * max_rows_];
+      total += observeSegment(model_.segments[d].shape, scratch.poses[d], rig_, masks,
+                              scratch.rasterizer, spans, scratch.footprints.data(), scratch.explained);
+      for (std::size_t c = 0; c < rig_.size(); ++c)
+        scratch.explained[c].push_back(scratch.footprints[c]);
+    }
+    return total;
   }
 
   // Keeps the K heaviest candidates (ties to the earlier one, so the result never depends on
@@ -251,7 +373,7 @@ class FactoredFilter final : public PoseFilter {
     std::iota(order_.begin(), order_.end(), 0);
     const int kept = std::min(options_.keep, count);
     std::partial_sort(order_.begin(), order_.begin() + kept, order_.end(), [&](int a, int b) {
-      const double wa = candidates_[a].log_weight, wb = candidates_[b].log_weight;
+      const double wa = candidates_[a].selection, wb = candidates_[b].selection;
       return wa > wb || (wa == wb && a < b);
     });
     next_particles_.resize(kept);
@@ -284,6 +406,7 @@ class FactoredFilter final : public PoseFilter {
       lw.push_back(p.log_weight);
     }
     weightedEstimate(qs, lw, estimate);
+    if (options_.estimate_best) estimate.q = particles_[0].q;  // kept sorted best first
   }
 
   const BodyModel& model_;
@@ -308,7 +431,8 @@ class FactoredFilter final : public PoseFilter {
   std::vector<RowSpan> span_arena_;
   std::size_t arena_used_ = 0;
   std::vector<WorkerScratch> scratch_;
-  std::unique_ptr<FullBodyEvaluator> body_;  // for whole-body layers
+  std::vector<std::vector<int>> descendants_;  // per segment
+  std::vector<RestOfBody> rest_;               // per kept particle
 };
 
 }  // namespace

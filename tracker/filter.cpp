@@ -22,6 +22,14 @@ std::unique_ptr<PoseFilter> makeFilter(const std::string& method, const BodyMode
                               "' (expected factored, condensation or annealed)");
 }
 
+FilterOptions::Lookahead parseLookahead(const std::string& name) {
+  if (name == "none") return FilterOptions::Lookahead::kNone;
+  if (name == "root") return FilterOptions::Lookahead::kRoot;
+  if (name == "subtree") return FilterOptions::Lookahead::kSubtree;
+  if (name == "body") return FilterOptions::Lookahead::kBody;
+  throw std::invalid_argument("lookahead: expected none, root, subtree or body, got '" + name + "'");
+}
+
 std::pair<double, double> proposalInterval(const Dof& dof, double value) {
   return {std::max(dof.min, value - dof.max_speed), std::min(dof.max, value + dof.max_speed)};
 }

@@ -27,9 +27,19 @@ struct FilterOptions {
   int keep = 5;                   // factored: K best candidates kept per layer
   int samples = 0;                // factored: S samples per interval; 0 = derived from the budget
   double injection_share = 0.02;  // factored: share of candidates from the static distribution
-  // factored: weigh the root's DOF layers by the whole body at its previous relative pose rather
-  // than by the root segment alone, which can slide inside the silhouette at no cost.
-  bool root_observes_body = true;
+  // factored: what a layer ranks its candidates by. kNone is the paper: the layer's own segment
+  // against the silhouette minus what earlier segments explain. Greedy, it lets a segment slide
+  // over silhouette that belongs to segments observed later (a big root or trunk steals the limbs'
+  // pixels). kRoot ranks the root's layers by the whole body at its previous relative pose;
+  // kSubtree ranks every layer by its segment and all its descendants at their previous relative
+  // pose; kBody ranks every layer by the whole body: what is already placed, the candidate's
+  // subtree, and every other segment not yet placed at its previous relative pose (so one leg does
+  // not take the other leg's pixels). Either way a particle's weight keeps only the segment's own
+  // factor, so the product of factors along the chain stays the paper's likelihood.
+  enum class Lookahead { kNone, kRoot, kSubtree, kBody };
+  Lookahead lookahead = Lookahead::kNone;
+  // factored: the estimate is the weighted mean of the kept particles, or the best of them.
+  bool estimate_best = false;
   int annealing_layers = 5;       // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;
@@ -78,6 +88,9 @@ void diffuseUniform(const BodyModel& model, Eigen::VectorXd& q, std::mt19937_64&
 // Shared by the filters: the weighted mean and spread of a set of DOF vectors with log-weights.
 void weightedEstimate(const std::vector<const Eigen::VectorXd*>& particles,
                       const std::vector<double>& log_weights, FrameEstimate& out);
+
+// "none", "root", "subtree" or "body"; throws std::invalid_argument otherwise.
+FilterOptions::Lookahead parseLookahead(const std::string& name);
 
 // The interval the proposal samples for DOF `d` around `value`: +-max_speed, clipped to the limits.
 std::pair<double, double> proposalInterval(const Dof& dof, double value);

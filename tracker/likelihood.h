@@ -31,6 +31,7 @@ struct PixelCounts {
     area += o.area;
     return *this;
   }
+  friend PixelCounts operator+(PixelCounts a, const PixelCounts& b) { return a += b; }
 };
 
 // Counts `footprint` against `mask`, skipping silhouette pixels covered by any of `explained`

@@ -8,7 +8,28 @@ namespace mocap {
 inline constexpr const char* kHandUsage =
     "hand [--method factored|condensation] [--evals N] [--frames N] [--seed S] [--cameras N]\n"
     "       [--motion FILE.csv] [--model FILE.yaml] [--threads N] [--keep K] [--samples S]\n"
-    "       [--injection SHARE] [--beta B] [--describe]";
+    "       [--injection SHARE] [--beta B] [--lookahead none|root|subtree|body] [--describe]";
 int runHandCommand(int argc, char** argv);
+
+inline constexpr const char* kHumanUsage =
+    "human --motion FILE.bvh [--method factored|condensation|annealed] [--evals N] [--cameras N]\n"
+    "       [--frames N] [--seed S] [--dofs 31|17] [--noise none|realistic] [--threads N]\n"
+    "       [--start-offset none|arm60|body30cm] [--injection SHARE] [--keep K] [--samples S]\n"
+    "       [--layers M] [--lookahead none|root|subtree|body] [--estimate mean|best]\n"
+    "       [--model FILE.yaml]";
+int runHumanCommand(int argc, char** argv);
+
+inline constexpr const char* kBvhFitUsage =
+    "bvh-fit --motion FILE.bvh [--frames N] [--rate HZ] [--model FILE.yaml]";
+int runBvhFitCommand(int argc, char** argv);
+
+inline constexpr const char* kSilhouetteUsage =
+    "silhouette [--seed S] [--frames N] [--width W] [--height H] [--learn N] [--threshold SIGMAS]\n"
+    "       [--gray] [--no-shadows] [--no-adaptive] [--dump DIR]";
+int runSilhouetteCommand(int argc, char** argv);
+
+inline constexpr const char* kCalibrationUsage =
+    "calibration [--cameras N] [--views N] [--noise PX] [--seed S] [--board checkerboard|charuco]";
+int runCalibrationCommand(int argc, char** argv);
 
 }  // namespace mocap

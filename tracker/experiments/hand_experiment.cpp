@@ -119,7 +119,7 @@ namespace mocap {
 int runHandCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
                   {"method", "evals", "frames", "seed", "cameras", "motion", "model", "threads",
-                   "keep", "samples", "injection", "beta"},
+                   "keep", "samples", "injection", "beta", "lookahead"},
                   {"describe"});
   if (args.has("describe")) {
     const BodyModel model =
@@ -140,6 +140,7 @@ int runHandCommand(int argc, char** argv) {
   config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));
   config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
   config.filter.likelihood.beta = args.real("beta", config.filter.likelihood.beta, 1e-9, 1e3);
+  config.filter.lookahead = parseLookahead(args.text("lookahead", "none"));
   std::cout << runHandExperiment(config).dump(2) << "\n";
   return 0;
 }

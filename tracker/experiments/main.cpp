@@ -15,6 +15,10 @@ struct Experiment {
 
 constexpr Experiment kExperiments[] = {
     {"hand", mocap::kHandUsage, mocap::runHandCommand},
+    {"human", mocap::kHumanUsage, mocap::runHumanCommand},
+    {"bvh-fit", mocap::kBvhFitUsage, mocap::runBvhFitCommand},
+    {"silhouette", mocap::kSilhouetteUsage, mocap::runSilhouetteCommand},
+    {"calibration", mocap::kCalibrationUsage, mocap::runCalibrationCommand},
 };
 
 void printUsage() {

@@ -22,8 +22,8 @@ struct SilhouetteOptions {
 
   // Shadows darken the background by a factor in [shadow_min_ratio, shadow_max_ratio]; BGR: the
   // colour stays that of the background within chroma_sigmas * stddev + chroma_ratio * brightness;
-  // gray: the 3x3 neighbourhood stays the background's texture scaled by the same factor, within
-  // texture_sigmas * stddev per pixel.
+  // gray: the 5x5 neighbourhood stays the background's texture scaled by a factor in the band,
+  // within texture_sigmas * stddev per pixel, and that texture stands out from the noise.
   bool suppress_shadows = true;
   float shadow_min_ratio = 0.35f;
   float shadow_max_ratio = 0.97f;
@@ -47,7 +47,7 @@ struct SilhouetteOptions {
   // person, a shadow, or anything that differs) are blended into the mean with adapt_rate.
   bool adaptive = true;
   int adapt_interval = 8;
-  float adapt_rate = 0.05f;
+  float adapt_rate = 0.1f;
 
   // Pixels outside the region of interest are never foreground; empty: the whole frame.
   cv::Rect region_of_interest;
@@ -92,6 +92,7 @@ class SilhouetteExtractor {
   cv::Mat margin_;        // per channel: max(threshold_sigmas * stddev, min_difference)
   cv::Mat pixel_sigma_;   // CV_32FC1: mean stddev over channels
   cv::Mat lower_, upper_; // CV_8UC(c): the unchanged range of each channel
+  cv::Mat bound_scratch_;
   cv::Mat normalized_;    // the frame's region of interest divided by the gain
   cv::Mat unchanged_;     // 255 where every channel is in range
   cv::Mat candidates_;    // changed and not shadow, before cleanup

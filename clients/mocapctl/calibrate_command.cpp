@@ -1,0 +1,57 @@
+// `mocapctl calibrate`: detects the board in per-camera image folders, calibrates the rig and writes
+// the rig file the tracker reads. Prints per-camera reprojection RMS and every rejected view.
+#include <iomanip>
+#include <iostream>
+
+#include "clients/mocapctl/commands.h"
+#include "tracker/calibration/calibrate.h"
+#include "tracker/experiments/args.h"
+
+namespace mocapctl {
+
+int runCalibrate(int argc, char** argv) {
+  const mocap::Args args(argc, argv, 2,
+                         {"board", "cols", "rows", "square", "marker", "dictionary", "images",
+                          "floor-view", "out", "min-views"},
+                         {});
+  for (const char* required : {"board", "cols", "rows", "square", "images", "out"})
+    if (!args.has(required))
+      throw std::invalid_argument(std::string("--") + required + " is required\nusage: mocapctl " +
+                                  kCalibrateUsage);
+  mocap::BoardSpec board;
+  board.type = mocap::parseBoardType(args.text("board", ""));
+  board.cols = static_cast<int>(args.integer("cols", 0, 3, 1000));
+  board.rows = static_cast<int>(args.integer("rows", 0, 3, 1000));
+  board.square = args.real("square", 0, 1e-4, 10);
+  board.marker = args.real("marker", board.square * 0.75, 1e-4, 10);
+  board.dictionary = args.text("dictionary", board.dictionary);
+  if (board.type == mocap::BoardType::kCharuco && !args.has("marker"))
+    throw std::invalid_argument("--marker is required for a ChArUco board");
+
+  mocap::CalibrationOptions options;
+  options.floor_view = args.text("floor-view", "");
+  options.min_views = static_cast<int>(args.integer("min-views", options.min_views, 3, 10000));
+
+  std::vector<mocap::RejectedView> not_detected;
+  const auto cameras = mocap::detectImageFolders(args.text("images", ""), board, not_detected);
+  for (const auto& r : not_detected)
+    std::cout << "rejected " << r.camera << "/" << r.view << ": " << r.reason << "\n";
+  const mocap::CalibrationResult result = mocap::calibrateRig(cameras, board, options);
+  for (const auto& r : result.rejected)
+    std::cout << "rejected " << r.camera << "/" << r.view << ": " << r.reason << "\n";
+  for (const auto& w : result.warnings) std::cout << "warning: " << w << "\n";
+  std::cout << std::fixed << std::setprecision(3);
+  for (std::size_t i = 0; i < result.cameras.size(); ++i) {
+    const auto& c = result.cameras[i];
+    const auto& m = result.rig[i];
+    std::cout << c.name << ": " << c.views_used << " views, intrinsic RMS " << c.intrinsic_rms_px
+              << " px, rig RMS " << c.rig_rms_px << " px, f = (" << m.fx << ", " << m.fy
+              << "), c = (" << m.cx << ", " << m.cy << ")\n";
+  }
+  const std::string out = args.text("out", "");
+  mocap::saveRig(out, result.rig);
+  std::cout << "rig RMS " << result.rig_rms_px << " px; wrote " << out << "\n";
+  return 0;
+}
+
+}  // namespace mocapctl

@@ -1,0 +1,14 @@
+// mocapctl subcommands: each parses its own flags (argv[2...]) and returns the exit code; main.cpp
+// lists them in one table.
+#pragma once
+
+namespace mocapctl {
+
+inline constexpr const char* kCalibrateUsage =
+    "calibrate --board checkerboard|charuco --cols N --rows N --square M [--marker M]\n"
+    "          [--dictionary 4X4_250] --images DIR [--floor-view NAME] --out RIG.yaml\n"
+    "          (cols/rows count squares; DIR holds one folder of images per camera, matched by "
+    "file name)";
+int runCalibrate(int argc, char** argv);
+
+}  // namespace mocapctl

@@ -1,0 +1,277 @@
+// The mocapctl subcommands that talk to mocapd: stream, status, skeleton, record, bvh, bench.
+#include "clients/mocapctl/daemon_commands.h"
+
+#include <time.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <google/protobuf/util/json_util.h>
+#include <nlohmann/json.hpp>
+
+#include "clients/mocapctl/bvh_export.h"
+#include "clients/mocapctl/daemon_client.h"
+
+namespace mocapctl {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+long positiveNumber(const std::string& flag, const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const long value = std::stol(text, &used);
+    if (used == text.size() && value > 0) return value;
+  } catch (const std::exception&) {
+  }
+  throw std::runtime_error(flag + ": expected a positive whole number, got '" + text + "'");
+}
+
+// Takes "--name VALUE" out of `args`; empty if absent.
+std::string takeFlag(std::vector<std::string>& args, const std::string& name) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] != name) continue;
+    if (i + 1 >= args.size()) throw std::runtime_error(name + " needs a value");
+    std::string value = args[i + 1];
+    args.erase(args.begin() + static_cast<std::ptrdiff_t>(i),
+               args.begin() + static_cast<std::ptrdiff_t>(i) + 2);
+    return value;
+  }
+  return "";
+}
+
+void noMoreArguments(const std::vector<std::string>& args) {
+  if (!args.empty()) throw std::runtime_error("unexpected argument '" + args.front() + "'");
+}
+
+std::string toJson(const google::protobuf::Message& message) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  options.always_print_primitive_fields = true;
+  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+  return json;
+}
+
+int64_t monotonicNowNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// One line on stderr, rewritten in place, for commands that run for a while.
+void progress(const std::string& text) { std::cerr << "\r" << text << std::flush; }
+
+}  // namespace
+
+int runStream(int argc, char** argv) {
+  DaemonFlags flags;
+  std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
+  const std::string joints = takeFlag(args, "--joints");
+  const std::string count_text = takeFlag(args, "--count");
+  noMoreArguments(args);
+  const long count = count_text.empty() ? 0 : positiveNumber("--count", count_text);
+
+  DaemonClient client(flags);
+  mocap::v1::StreamPosesRequest request;
+  for (std::size_t start = 0; start < joints.size();) {
+    const std::size_t comma = std::min(joints.find(',', start), joints.size());
+    if (comma > start) request.add_joints(joints.substr(start, comma - start));
+    start = comma + 1;
+  }
+  std::unique_ptr<grpc::ClientContext> context = client.context();
+  std::unique_ptr<grpc::ClientReader<mocap::v1::Pose>> reader =
+      client.stub().StreamPoses(context.get(), request);
+  mocap::v1::Pose pose;
+  long received = 0;
+  while (reader->Read(&pose)) {
+    nlohmann::json line;
+    line["frame"] = pose.frame_sequence();
+    line["capture_monotonic_ns"] = pose.capture_monotonic_ns();
+    line["capture_wall_ns"] = pose.capture_wall_ns();
+    line["publish_monotonic_ns"] = pose.publish_monotonic_ns();
+    nlohmann::json positions = nlohmann::json::object();
+    for (const mocap::v1::JointPosition& joint : pose.joints()) {
+      positions[joint.name()] = {joint.position().x(), joint.position().y(),
+                                 joint.position().z()};
+    }
+    line["joints"] = positions;
+    line["dofs"] = std::vector<double>(pose.dofs().begin(), pose.dofs().end());
+    line["score"] = pose.score();
+    line["spread"] = pose.spread();
+    line["missed_before"] = pose.missed_before();
+    std::cout << line.dump() << "\n" << std::flush;
+    if (count > 0 && ++received >= count) {
+      context->TryCancel();
+      break;
+    }
+  }
+  const grpc::Status status = reader->Finish();
+  if (count > 0 && received >= count) return 0;
+  check(status, "StreamPoses");
+  return 0;
+}
+
+int runStatus(int argc, char** argv) {
+  DaemonFlags flags;
+  noMoreArguments(parseDaemonFlags(argc, argv, flags));
+  DaemonClient client(flags);
+  mocap::v1::Status status;
+  check(client.stub().GetStatus(client.context().get(), {}, &status), "GetStatus");
+  std::cout << toJson(status);
+  return 0;
+}
+
+int runSkeleton(int argc, char** argv) {
+  DaemonFlags flags;
+  noMoreArguments(parseDaemonFlags(argc, argv, flags));
+  DaemonClient client(flags);
+  mocap::v1::Skeleton skeleton;
+  check(client.stub().GetSkeleton(client.context().get(), {}, &skeleton), "GetSkeleton");
+  std::cout << toJson(skeleton);
+  return 0;
+}
+
+int runRecord(int argc, char** argv) {
+  DaemonFlags flags;
+  std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
+  if (args.empty()) throw std::runtime_error("expected 'start [PATH]' or 'stop'");
+  const std::string action = args.front();
+  args.erase(args.begin());
+  DaemonClient client(flags);
+  mocap::v1::RecordingState state;
+  if (action == "start") {
+    mocap::v1::StartRecordingRequest request;
+    if (!args.empty()) {
+      request.set_path(args.front());
+      args.erase(args.begin());
+    }
+    noMoreArguments(args);
+    check(client.stub().StartRecording(client.context().get(), request, &state), "StartRecording");
+  } else if (action == "stop") {
+    noMoreArguments(args);
+    check(client.stub().StopRecording(client.context().get(), {}, &state), "StopRecording");
+  } else {
+    throw std::runtime_error("expected 'start [PATH]' or 'stop', got '" + action + "'");
+  }
+  std::cout << toJson(state);
+  return 0;
+}
+
+int runBvh(int argc, char** argv) {
+  DaemonFlags flags;
+  std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
+  const std::string seconds_text = takeFlag(args, "--seconds");
+  if (args.size() != 1) throw std::runtime_error("expected one output file: bvh OUT.bvh --seconds N");
+  if (seconds_text.empty()) throw std::runtime_error("--seconds N is required");
+  const long seconds = positiveNumber("--seconds", seconds_text);
+  const std::string out_path = args.front();
+
+  DaemonClient client(flags);
+  mocap::v1::Skeleton skeleton;
+  check(client.stub().GetSkeleton(client.context().get(), {}, &skeleton), "GetSkeleton");
+  std::unique_ptr<grpc::ClientContext> context = client.context();
+  context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
+  mocap::v1::StreamPosesRequest request;
+  // BVH needs only the DOFs: one joint keeps the poses small.
+  if (skeleton.points_size() > 0) request.add_joints(skeleton.points(0).name());
+  std::unique_ptr<grpc::ClientReader<mocap::v1::Pose>> reader =
+      client.stub().StreamPoses(context.get(), request);
+  std::vector<std::vector<double>> frames;
+  int64_t first_capture = 0, last_capture = 0;
+  uint64_t missed = 0;
+  const auto start = Clock::now();
+  auto last_progress = start;
+  mocap::v1::Pose pose;
+  while (reader->Read(&pose)) {
+    if (frames.empty()) first_capture = pose.capture_monotonic_ns();
+    last_capture = pose.capture_monotonic_ns();
+    missed += frames.empty() ? 0 : pose.missed_before();
+    frames.emplace_back(pose.dofs().begin(), pose.dofs().end());
+    if (Clock::now() - last_progress >= std::chrono::seconds(1)) {
+      last_progress = Clock::now();
+      progress("bvh: " + std::to_string(std::chrono::duration_cast<std::chrono::seconds>(
+                                            last_progress - start).count()) +
+               "/" + std::to_string(seconds) + " s, " + std::to_string(frames.size()) + " poses");
+    }
+  }
+  const grpc::Status status = reader->Finish();
+  if (status.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED) check(status, "StreamPoses");
+  if (frames.empty()) throw std::runtime_error("no pose arrived in " + seconds_text + " s");
+  // The frame time is the mean capture interval, so the clip plays at the captured pace.
+  const double frame_time =
+      frames.size() > 1 ? static_cast<double>(last_capture - first_capture) / 1e9 /
+                              static_cast<double>(frames.size() - 1 + missed)
+                        : 0.04;
+  std::ofstream out(out_path);
+  if (!out) throw std::runtime_error(out_path + ": cannot write");
+  writeBvh(out, skeleton, frames, frame_time);
+  if (!out.flush()) throw std::runtime_error(out_path + ": write failed");
+  progress("bvh: wrote " + std::to_string(frames.size()) + " poses to " + out_path + " (" +
+           std::to_string(missed) + " missed)\n");
+  return 0;
+}
+
+int runBench(int argc, char** argv) {
+  DaemonFlags flags;
+  std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
+  const std::string seconds_text = takeFlag(args, "--seconds");
+  noMoreArguments(args);
+  const long seconds = seconds_text.empty() ? 10 : positiveNumber("--seconds", seconds_text);
+
+  DaemonClient client(flags);
+  std::unique_ptr<grpc::ClientContext> context = client.context();
+  mocap::v1::StreamPosesRequest request;
+  std::unique_ptr<grpc::ClientReader<mocap::v1::Pose>> reader =
+      client.stub().StreamPoses(context.get(), request);
+  // The first pose starts the window, so connection set-up is not measured.
+  mocap::v1::Pose pose;
+  if (!reader->Read(&pose)) {
+    check(reader->Finish(), "StreamPoses");
+    throw std::runtime_error("the stream ended before the first pose");
+  }
+  const uint64_t first_frame = pose.frame_sequence();
+  const auto start = Clock::now();
+  const auto end = start + std::chrono::seconds(seconds);
+  auto last_progress = start;
+  std::vector<double> latencies_ms;
+  uint64_t missed = 0, last_frame = first_frame;
+  while (Clock::now() < end && reader->Read(&pose)) {
+    // Same host, same CLOCK_MONOTONIC: arrival minus exposure is the whole capture-to-wire path.
+    latencies_ms.push_back(static_cast<double>(monotonicNowNs() - pose.capture_monotonic_ns()) / 1e6);
+    missed += pose.missed_before();
+    last_frame = pose.frame_sequence();
+    if (Clock::now() - last_progress >= std::chrono::seconds(1)) {
+      last_progress = Clock::now();
+      progress("bench: " + std::to_string(latencies_ms.size()) + " poses");
+    }
+  }
+  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  context->TryCancel();
+  reader->Finish();
+  std::cerr << "\n";
+  if (latencies_ms.empty()) throw std::runtime_error("no pose arrived after the first one");
+  std::sort(latencies_ms.begin(), latencies_ms.end());
+  const auto percentile = [&](double p) {
+    return latencies_ms[static_cast<std::size_t>(p * static_cast<double>(latencies_ms.size() - 1) + 0.5)];
+  };
+  nlohmann::json summary = {
+      {"seconds", elapsed},
+      {"poses", latencies_ms.size()},
+      {"poses_per_second", static_cast<double>(latencies_ms.size()) / elapsed},
+      {"frame_sets_spanned", last_frame - first_frame},
+      {"missed_by_this_client", missed},
+      {"latency_ms", {{"p50", percentile(0.5)}, {"p99", percentile(0.99)},
+                      {"max", latencies_ms.back()}}},
+  };
+  std::cout << summary.dump(2) << "\n";
+  return 0;
+}
+
+}  // namespace mocapctl

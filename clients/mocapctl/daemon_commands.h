@@ -1,0 +1,24 @@
+// mocapctl subcommands that talk to a running mocapd (each also takes --server HOST:PORT,
+// --token TOKEN or $MOCAP_TOKEN, and --tls-ca PEM).
+#pragma once
+
+namespace mocapctl {
+
+inline constexpr const char* kStreamUsage =
+    "stream [--joints a,b,...] [--count N]   poses as JSON lines, one a line";
+inline constexpr const char* kStatusUsage = "status                   the daemon's status as JSON";
+inline constexpr const char* kSkeletonUsage = "skeleton                 the tracked skeleton as JSON";
+inline constexpr const char* kRecordUsage =
+    "record start [PATH] | record stop   (PATH relative to the daemon's recording directory)";
+inline constexpr const char* kBvhUsage = "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
+inline constexpr const char* kBenchUsage =
+    "bench [--seconds N]      capture-to-pose-on-the-wire latency and sustained pose rate";
+
+int runStream(int argc, char** argv);
+int runStatus(int argc, char** argv);
+int runSkeleton(int argc, char** argv);
+int runRecord(int argc, char** argv);
+int runBvh(int argc, char** argv);
+int runBench(int argc, char** argv);
+
+}  // namespace mocapctl

@@ -1,0 +1,52 @@
+// mocapctl: command-line client of mocapd. Subcommands are listed once in kCommands; each lives in
+// its own file. Some (calibrate) work without a running daemon.
+#include <iostream>
+#include <string>
+
+#include "clients/mocapctl/commands.h"
+#include "clients/mocapctl/daemon_commands.h"
+
+namespace {
+
+struct Command {
+  const char* name;
+  const char* usage;
+  int (*run)(int argc, char** argv);  // argv[1] is the subcommand; its flags follow
+};
+
+constexpr Command kCommands[] = {
+    {"calibrate", mocapctl::kCalibrateUsage, mocapctl::runCalibrate},
+    {"stream", mocapctl::kStreamUsage, mocapctl::runStream},
+    {"status", mocapctl::kStatusUsage, mocapctl::runStatus},
+    {"skeleton", mocapctl::kSkeletonUsage, mocapctl::runSkeleton},
+    {"record", mocapctl::kRecordUsage, mocapctl::runRecord},
+    {"bvh", mocapctl::kBvhUsage, mocapctl::runBvh},
+    {"bench", mocapctl::kBenchUsage, mocapctl::runBench},
+};
+
+void printUsage() {
+  std::cerr << "usage: mocapctl <command> [flags]\n";
+  for (const Command& c : kCommands) std::cerr << "  " << c.usage << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
+    printUsage();
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string name = argv[1];
+  for (const Command& c : kCommands) {
+    if (name != c.name) continue;
+    try {
+      return c.run(argc, argv);
+    } catch (const std::exception& error) {
+      std::cerr << "mocapctl " << name << ": " << error.what() << "\n";
+      return 1;
+    }
+  }
+  std::cerr << "mocapctl: unknown command '" << name << "'\n";
+  printUsage();
+  return 2;
+}

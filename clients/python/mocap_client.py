@@ -1,0 +1,145 @@
+#!/usr/bin/python3
+"""Python client of mocapd: stream poses, read the status and the skeleton, check health.
+
+Uses Debian's python3-grpcio (run it with /usr/bin/python3) and the stubs the build generates
+into <build>/python (mocap/v1/mocap_pb2.py, mocap_pb2_grpc.py). Point --stubs (or $MOCAP_PY_STUBS)
+at that folder; by default it looks in ../../build/python beside this file.
+
+As a library:
+    client = MocapClient("127.0.0.1:50051", token=None)
+    for pose in client.stream_poses(joints=["wrist"]):
+        ...
+
+As a command:
+    mocap_client.py stream [--count N] [--joints a,b]   JSON lines, one pose a line
+    mocap_client.py status | skeleton | health
+"""
+
+import argparse
+import json
+import os
+import sys
+
+
+def _import_stubs(stubs_dir):
+    """Imports the generated modules from stubs_dir (or the default build tree)."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    candidates = [stubs_dir, os.environ.get("MOCAP_PY_STUBS"),
+                  os.path.join(here, "..", "..", "build", "python")]
+    for directory in candidates:
+        if directory and os.path.isfile(os.path.join(directory, "mocap", "v1", "mocap_pb2.py")):
+            sys.path.insert(0, os.path.abspath(directory))
+            break
+    else:
+        raise SystemExit("mocap_client: no generated stubs in %s: build the mocap_proto_python "
+                         "target, then pass --stubs <build>/python or set MOCAP_PY_STUBS"
+                         % ", ".join(d for d in candidates if d))
+    from mocap.v1 import mocap_pb2, mocap_pb2_grpc  # noqa: E402 (found at run time)
+    return mocap_pb2, mocap_pb2_grpc
+
+
+# Keeps a slow reader near live: without BDP probing and with a small per-stream window, only a
+# few poses wait in this client's buffers; the daemon drops the older ones and says how many in
+# Pose.missed_before (see clients/mocapctl/daemon_client.h).
+NEAR_LIVE_CHANNEL_OPTIONS = [
+    ("grpc.http2.bdp_probe", 0),
+    ("grpc.http2.lookahead_bytes", 16 * 1024),
+]
+
+
+class MocapClient:
+    def __init__(self, server="127.0.0.1:50051", token=None, tls_ca=None, stubs_dir=None):
+        import grpc
+        self._grpc = grpc
+        self.pb, pb_grpc = _import_stubs(stubs_dir)
+        if tls_ca:
+            with open(tls_ca, "rb") as f:
+                credentials = grpc.ssl_channel_credentials(root_certificates=f.read())
+            self._channel = grpc.secure_channel(server, credentials, NEAR_LIVE_CHANNEL_OPTIONS)
+        else:
+            self._channel = grpc.insecure_channel(server, NEAR_LIVE_CHANNEL_OPTIONS)
+        self._stub = pb_grpc.MocapServiceStub(self._channel)
+        self._metadata = [("authorization", "Bearer " + token)] if token else []
+
+    def close(self):
+        self._channel.close()
+
+    def stream_poses(self, joints=None):
+        """Yields mocap.v1.Pose messages until the daemon ends the stream; cancel by closing."""
+        request = self.pb.StreamPosesRequest(joints=joints or [])
+        return self._stub.StreamPoses(request, metadata=self._metadata)
+
+    def status(self):
+        return self._stub.GetStatus(self.pb.GetStatusRequest(), metadata=self._metadata)
+
+    def skeleton(self):
+        return self._stub.GetSkeleton(self.pb.GetSkeletonRequest(), metadata=self._metadata)
+
+    def health(self, service=""):
+        """grpc.health.v1.Health/Check without its stubs (Debian ships none): the request is
+        HealthCheckRequest{service}, the reply HealthCheckResponse{status}, both tiny enough to
+        encode by hand. Returns "SERVING", "NOT_SERVING", "UNKNOWN" or "SERVICE_UNKNOWN"."""
+        name = service.encode()
+        request = (b"\x0a" + bytes([len(name)]) + name) if name else b""
+        check = self._channel.unary_unary("/grpc.health.v1.Health/Check",
+                                          request_serializer=lambda raw: raw,
+                                          response_deserializer=lambda raw: raw)
+        reply = check(request, timeout=5)
+        value = reply[1] if len(reply) >= 2 and reply[0] == 0x08 else 0
+        return {0: "UNKNOWN", 1: "SERVING", 2: "NOT_SERVING", 3: "SERVICE_UNKNOWN"}.get(value, "UNKNOWN")
+
+
+def pose_to_dict(pose):
+    return {
+        "frame": pose.frame_sequence,
+        "capture_monotonic_ns": pose.capture_monotonic_ns,
+        "capture_wall_ns": pose.capture_wall_ns,
+        "publish_monotonic_ns": pose.publish_monotonic_ns,
+        "joints": {j.name: [j.position.x, j.position.y, j.position.z] for j in pose.joints},
+        "dofs": list(pose.dofs),
+        "score": pose.score,
+        "spread": pose.spread,
+        "missed_before": pose.missed_before,
+    }
+
+
+def main():
+    parser = argparse.ArgumentParser(description="Python client of mocapd")
+    parser.add_argument("command", choices=["stream", "status", "skeleton", "health"])
+    parser.add_argument("--server", default="127.0.0.1:50051")
+    parser.add_argument("--token", default=os.environ.get("MOCAP_TOKEN"))
+    parser.add_argument("--tls-ca")
+    parser.add_argument("--stubs", help="folder of the generated stubs (<build>/python)")
+    parser.add_argument("--count", type=int, default=0, help="stream: stop after N poses")
+    parser.add_argument("--joints", default="", help="stream: comma-separated joint names")
+    args = parser.parse_args()
+
+    client = MocapClient(args.server, args.token, args.tls_ca, args.stubs)
+    from google.protobuf import json_format
+    try:
+        if args.command == "stream":
+            joints = [j for j in args.joints.split(",") if j]
+            stream = client.stream_poses(joints)
+            received = 0
+            for pose in stream:
+                print(json.dumps(pose_to_dict(pose)), flush=True)
+                received += 1
+                if args.count and received >= args.count:
+                    stream.cancel()
+                    break
+        elif args.command == "status":
+            print(json_format.MessageToJson(client.status(), including_default_value_fields=True))
+        elif args.command == "skeleton":
+            print(json_format.MessageToJson(client.skeleton(), including_default_value_fields=True))
+        else:
+            print(client.health())
+    except client._grpc.RpcError as error:
+        print("mocap_client: %s: %s" % (error.code().name, error.details()), file=sys.stderr)
+        return 1
+    finally:
+        client.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,234 @@
+// The synthetic scene: rig choice, background texture, body painting, noise, ground truth.
+#include "drivers/fake/fake_scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tracker/experiments/hand_experiment.h"
+
+namespace mocap {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::size_t kNoiseOffsets = 1 << 16;
+
+uint64_t splitmix64(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+double unitInterval(uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
+
+int64_t monotonicNowNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// Far from the background's mid-range texture, and alternating light/dark so neighbouring
+// segments stay apart.
+const cv::Vec3b kSegmentPalette[] = {{30, 30, 235}, {30, 215, 30},  {235, 90, 20},
+                                     {20, 225, 245}, {225, 30, 225}, {245, 225, 30}};
+const uint8_t kSegmentGrays[] = {250, 8, 240, 18, 230, 28};
+
+// Largest distance between two segment origins in the neutral pose, plus the largest shape.
+double modelExtent(const BodyModel& model) {
+  KinematicsData data(model);
+  forwardKinematics(model, data, model.neutralPose());
+  double extent = 0;
+  for (const Eigen::Isometry3d& a : data.world) {
+    for (const Eigen::Isometry3d& b : data.world) extent = std::max(extent, (a.translation() - b.translation()).norm());
+  }
+  double largest_shape = 0;
+  for (const Segment& s : model.segments) {
+    largest_shape = std::max({largest_shape, s.shape.length, 2 * s.shape.radii.maxCoeff()});
+  }
+  return extent + largest_shape;
+}
+
+}  // namespace
+
+Rig labRig(int cameras, int width, int height) {
+  const Eigen::Vector3d target(0.0, 0.0, 1.0);
+  const double distance = 4.0;
+  const double eye_height = 1.6;
+  // About 2.3 m of the volume fills 90 % of the image height at 4 m.
+  const double focal = 900.0 * height / 580.0;
+  Rig rig;
+  for (int i = 0; i < cameras; ++i) {
+    // The subject faces +Y; the cameras stand in front, 60 degrees apart, centred on +Y.
+    const double azimuth = (i - (cameras - 1) / 2.0) * 60.0 * kPi / 180.0;
+    const Eigen::Vector3d eye(distance * std::sin(azimuth), distance * std::cos(azimuth), eye_height);
+    rig.push_back(CameraModel::lookAt("cam" + std::to_string(i), eye, target, Eigen::Vector3d::UnitZ(),
+                                      width, height, focal));
+  }
+  return rig;
+}
+
+Rig defaultFakeRig(const BodyModel& model, int cameras, int width, int height) {
+  return modelExtent(model) > 0.5 ? labRig(cameras, width, height) : handRig(cameras, width, height);
+}
+
+FakeRenderScratch::FakeRenderScratch(const BodyModel& model, int max_rows)
+    : kinematics(model), rasterizer(kSimulatorPointsPerCircle), spans(static_cast<std::size_t>(max_rows)) {}
+
+FakeScene::FakeScene(FakeSceneOptions options) : options_(std::move(options)) {}
+
+Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options) {
+  if (!(options.fps > 0)) return Status::Error("fake scene: fps must be positive");
+  if (options.noise_sigma < 0) return Status::Error("fake scene: noise_sigma must not be negative");
+  if (options.faults.drop_rate < 0 || options.faults.drop_rate >= 1) {
+    return Status::Error("fake scene: drop_rate must be in [0, 1)");
+  }
+  std::shared_ptr<FakeScene> scene(new FakeScene(std::move(options)));
+  FakeSceneOptions& o = scene->options_;
+  try {
+    scene->model_ = o.model ? o.model : std::make_shared<const BodyModel>(builtinHandModel());
+    scene->motion_ = o.motion ? o.motion
+                              : std::make_shared<const Motion>(generateMotion(*scene->model_, o.generated_frames, o.seed));
+    if (o.rig.empty()) {
+      if (o.cameras <= 0) return Status::Error("fake scene: cameras must be positive");
+      o.rig = defaultFakeRig(*scene->model_, o.cameras, o.width, o.height);
+    }
+  } catch (const std::exception& e) {
+    return Status::Error(std::string("fake scene: ") + e.what());
+  }
+  scene->rig_ = o.rig;
+  o.cameras = static_cast<int>(scene->rig_.size());
+  if (scene->motion_->empty()) return Status::Error("fake scene: the motion has no frames");
+  const Eigen::Index dofs = static_cast<Eigen::Index>(scene->model_->dofs.size());
+  for (std::size_t f = 0; f < scene->motion_->size(); ++f) {
+    if ((*scene->motion_)[f].size() != dofs) {
+      return Status::Error("fake scene: motion frame " + std::to_string(f) + " has " +
+                           std::to_string((*scene->motion_)[f].size()) + " values, the model " +
+                           scene->model_->name + " has " + std::to_string(dofs) + " DOFs");
+    }
+  }
+  scene->period_ns_ = static_cast<int64_t>(std::llround(1e9 / o.fps));
+
+  std::size_t largest_image = 0;
+  for (std::size_t c = 0; c < scene->rig_.size(); ++c) {
+    const CameraModel& cam = scene->rig_[c];
+    if (cam.width <= 0 || cam.height <= 0 || cam.height > kMaxImageRows) {
+      return Status::Error("fake scene: camera " + std::to_string(c) + " has a bad size " +
+                           std::to_string(cam.width) + "x" + std::to_string(cam.height));
+    }
+    // Smooth blotches with a finer blocky texture on top: a background a silhouette extractor has
+    // to learn, never flat.
+    cv::RNG rng(splitmix64(o.seed * 7919 + c));
+    cv::Mat coarse(10, 13, CV_8UC3), fine(std::max(1, cam.height / 8), std::max(1, cam.width / 8), CV_8UC3);
+    rng.fill(coarse, cv::RNG::UNIFORM, 70, 190);
+    rng.fill(fine, cv::RNG::UNIFORM, 0, 40);
+    cv::Mat smooth, blocks, background;
+    cv::resize(coarse, smooth, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_CUBIC);
+    cv::resize(fine, blocks, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_NEAREST);
+    cv::add(smooth, blocks, background);
+    cv::subtract(background, cv::Scalar::all(20), background);
+    if (o.gray) cv::cvtColor(background, background, cv::COLOR_BGR2GRAY);
+    scene->backgrounds_.push_back(background);
+    largest_image = std::max(largest_image, background.total() * background.elemSize());
+  }
+  cv::RNG rng(splitmix64(o.seed ^ 0x6e6f697365ull));
+  scene->noise_up_.resize(largest_image + kNoiseOffsets);
+  scene->noise_down_.resize(largest_image + kNoiseOffsets);
+  for (std::size_t i = 0; i < scene->noise_up_.size(); ++i) {
+    const long n = std::clamp(std::lround(rng.gaussian(o.noise_sigma)), -255l, 255l);
+    scene->noise_up_[i] = static_cast<uint8_t>(std::max(n, 0l));
+    scene->noise_down_[i] = static_cast<uint8_t>(std::max(-n, 0l));
+  }
+  return scene;
+}
+
+int64_t FakeScene::epochNs() {
+  std::lock_guard<std::mutex> lock(epoch_mutex_);
+  if (!epoch_ns_) epoch_ns_ = monotonicNowNs();
+  return *epoch_ns_;
+}
+
+std::size_t FakeScene::motionFrame(uint64_t sequence) const {
+  // Forward then backward: a looped motion would jump from its last pose to its first.
+  const uint64_t n = motion_->size();
+  if (n == 1) return 0;
+  const uint64_t cycle = 2 * (n - 1);
+  const uint64_t phase = sequence % cycle;
+  return static_cast<std::size_t>(phase < n ? phase : cycle - phase);
+}
+
+GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
+  GroundTruth truth;
+  truth.sequence = sequence;
+  truth.motion_frame = motionFrame(sequence);
+  truth.q = (*motion_)[truth.motion_frame];
+  std::lock_guard<std::mutex> lock(truth_mutex_);
+  if (!truth_renderer_) truth_renderer_ = std::make_unique<SceneRenderer>(*model_, rig_);
+  truth_renderer_->renderSilhouettes(truth.q, truth.silhouettes);
+  return truth;
+}
+
+void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch, cv::Mat& image) const {
+  const CameraModel& cam = rig_[camera];
+  forwardKinematics(*model_, scratch.kinematics, (*motion_)[motionFrame(sequence)]);
+  backgrounds_[camera].copyTo(image);
+
+  // Painter's order, farthest segment first, so nearer segments cover it as they would.
+  std::vector<std::pair<double, std::size_t>> order;
+  order.reserve(model_->segments.size());
+  for (std::size_t s = 0; s < model_->segments.size(); ++s) {
+    order.emplace_back(-cam.toCamera(scratch.kinematics.world[s].translation()).z(), s);
+  }
+  std::sort(order.begin(), order.end());
+  for (const auto& [depth, s] : order) {
+    const Footprint f = scratch.rasterizer.rasterize(model_->segments[s].shape, scratch.kinematics.world[s], cam,
+                                                     scratch.spans.data());
+    if (options_.gray) {
+      fillFootprint(image, f, kSegmentGrays[s % std::size(kSegmentGrays)]);
+      continue;
+    }
+    const cv::Vec3b colour = kSegmentPalette[s % std::size(kSegmentPalette)];
+    for (int y = f.y0; y < f.y1; ++y) {
+      const RowSpan& span = f.spans[y - f.y0];
+      cv::Vec3b* row = image.ptr<cv::Vec3b>(y);
+      std::fill(row + span.x0, row + span.x1, colour);
+    }
+  }
+
+  if (options_.noise_sigma <= 0) return;
+  // Zero-mean noise in two saturating SIMD passes (add the positive part, subtract the negative),
+  // read from the precomputed strip at a per-frame offset: cheap, and repeatable per frame.
+  const std::size_t bytes = image.total() * image.elemSize();
+  const std::size_t offset = hash(camera, sequence, 1) % kNoiseOffsets;
+  cv::Mat flat = image.reshape(1, 1);
+  // Read-only headers over the strips (cv::Mat has no const view).
+  const cv::Mat up(1, static_cast<int>(bytes), CV_8UC1, const_cast<uint8_t*>(noise_up_.data() + offset));
+  const cv::Mat down(1, static_cast<int>(bytes), CV_8UC1, const_cast<uint8_t*>(noise_down_.data() + offset));
+  cv::add(flat, up, flat);
+  cv::subtract(flat, down, flat);
+}
+
+uint64_t FakeScene::hash(int camera, uint64_t sequence, uint64_t salt) const {
+  return splitmix64(splitmix64(splitmix64(options_.seed ^ (salt << 56)) ^ static_cast<uint64_t>(camera)) ^ sequence);
+}
+
+bool FakeScene::dropped(int camera, uint64_t sequence) const {
+  return options_.faults.drop_rate > 0 && unitInterval(hash(camera, sequence, 2)) < options_.faults.drop_rate;
+}
+
+int64_t FakeScene::jitterNs(int camera, uint64_t sequence) const {
+  // Capped so frames of one camera never swap order and sets still group within the tolerance.
+  const int64_t amplitude = std::min<int64_t>(options_.faults.timestamp_jitter.count(), period_ns_ / 3);
+  if (amplitude <= 0) return 0;
+  return static_cast<int64_t>(std::llround((2 * unitInterval(hash(camera, sequence, 3)) - 1) * amplitude));
+}
+
+bool FakeScene::inOutage(const FakeOutage& outage, int camera, uint64_t sequence) const {
+  if (outage.camera != camera || outage.duration.count() <= 0) return false;
+  const uint64_t frames = static_cast<uint64_t>((outage.duration.count() + period_ns_ - 1) / period_ns_);
+  return sequence >= outage.after_frames && sequence < outage.after_frames + frames;
+}
+
+}  // namespace mocap

@@ -1,0 +1,145 @@
+// The fake driver's synthetic scene: a body model moving along a motion, seen by calibrated virtual
+// cameras. Renders each camera's image (textured background, body painted a shade per segment,
+// sensor noise) and answers ground-truth queries (DOF vector and silhouettes of any frame).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "drivers/status.h"
+#include "tracker/body_model.h"
+#include "tracker/camera.h"
+#include "tracker/kinematics.h"
+#include "tracker/motion.h"
+#include "tracker/raster.h"
+#include "tracker/scene.h"
+
+namespace mocap {
+
+// A stretch of frames during which one camera delivers nothing.
+struct FakeOutage {
+  int camera = -1;                       // -1: no outage
+  uint64_t after_frames = 0;             // starts at this frame sequence
+  std::chrono::nanoseconds duration{0};  // rounded up to whole frame periods
+};
+
+// Fault knobs, all off by default. Deterministic for a given seed.
+struct FakeFaults {
+  double drop_rate = 0;  // chance each frame is lost; the next one counts it in dropped_before
+  std::chrono::nanoseconds timestamp_jitter{0};  // uniform in +-jitter (capped at a third of a period)
+  FakeOutage stall;       // silent: frames just stop, then resume
+  FakeOutage disconnect;  // reported through the event sink when it goes and when it comes back
+};
+
+enum class FakePacing {
+  kRealTime,          // each camera's thread delivers frame N at its exposure time on CLOCK_MONOTONIC
+  kAsFastAsPossible,  // no waiting; timestamps still advance by one period per frame
+};
+
+struct FakeSceneOptions {
+  // The injection point for other bodies and motions (a human model, BVH clips): any model, with a
+  // motion in its DOF order. Null model: the built-in hand. Null motion: generateMotion(model,
+  // generated_frames, seed). The motion plays forward then backward, so it never jumps.
+  std::shared_ptr<const BodyModel> model;
+  std::shared_ptr<const Motion> motion;
+  int generated_frames = 500;
+  // Empty: defaultFakeRig(model, cameras, width, height).
+  Rig rig;
+  int cameras = 2;
+  int width = 780;
+  int height = 580;
+  double fps = 25.0;
+  uint64_t seed = 1;
+  double noise_sigma = 3.0;  // grey levels
+  bool gray = false;         // CV_8UC1 images instead of BGR
+  FakePacing pacing = FakePacing::kRealTime;
+  // Frames per camera before the stream ends (the thread stops delivering); 0: endless.
+  uint64_t frame_limit = 0;
+  FakeFaults faults;
+};
+
+// A rig for a person-sized volume as a lab would place it: `cameras` cameras 4 m from a point
+// 1 m above the floor, 1.6 m high, tilted down, spread 60 degrees apart around the volume.
+Rig labRig(int cameras, int width, int height);
+// The rig used when none is given: the lab rig for a body taller than half a metre, otherwise one
+// framed for a hand-sized model (the hand experiment's rig), so the default scene fills the image.
+Rig defaultFakeRig(const BodyModel& model, int cameras, int width, int height);
+
+struct GroundTruth {
+  uint64_t sequence = 0;
+  std::size_t motion_frame = 0;        // which frame of the motion was shown
+  Eigen::VectorXd q;                   // the DOF vector
+  std::vector<cv::Mat> silhouettes;    // per camera, CV_8UC1, 255 where the body is
+};
+
+// Per-thread render scratch: one per camera thread.
+struct FakeRenderScratch {
+  explicit FakeRenderScratch(const BodyModel& model, int max_rows);
+  KinematicsData kinematics;
+  ShapeRasterizer rasterizer;
+  std::vector<RowSpan> spans;
+};
+
+// Shared by every camera opened from one FakeDriver. Immutable after create() except for the
+// start epoch and the ground-truth renderer, both guarded.
+class FakeScene {
+ public:
+  // Builds the model, motion and rig (the tracker's loaders throw; caught here) and checks that the
+  // motion matches the model and the rig has cameras.
+  static Expected<std::shared_ptr<FakeScene>> create(FakeSceneOptions options);
+
+  const FakeSceneOptions& options() const { return options_; }
+  const BodyModel& model() const { return *model_; }
+  const Motion& motion() const { return *motion_; }
+  const Rig& rig() const { return rig_; }
+  int64_t periodNs() const { return period_ns_; }
+
+  // Frame 0's exposure time (CLOCK_MONOTONIC ns), fixed by the first call: the cameras share it,
+  // so frame N of every camera is the same instant and the same pose.
+  int64_t epochNs();
+  int64_t exposureTimeNs(uint64_t sequence) { return epochNs() + static_cast<int64_t>(sequence) * period_ns_; }
+  std::size_t motionFrame(uint64_t sequence) const;
+
+  // The ground truth of frame `sequence`. Thread-safe (serialized); renders on each call.
+  GroundTruth groundTruth(uint64_t sequence) const;
+
+  // Renders camera `camera`'s image of frame `sequence` into `image` (reallocated only if needed).
+  // Deterministic: the same (camera, sequence) gives the same pixels. Thread-safe with distinct
+  // scratch objects.
+  void render(int camera, uint64_t sequence, FakeRenderScratch& scratch, cv::Mat& image) const;
+  // The background alone (no body, no noise), for tests.
+  const cv::Mat& background(int camera) const { return backgrounds_[camera]; }
+
+  // Fault decisions for (camera, sequence): deterministic per seed.
+  bool dropped(int camera, uint64_t sequence) const;
+  int64_t jitterNs(int camera, uint64_t sequence) const;
+  bool inOutage(const FakeOutage& outage, int camera, uint64_t sequence) const;
+
+ private:
+  explicit FakeScene(FakeSceneOptions options);
+  uint64_t hash(int camera, uint64_t sequence, uint64_t salt) const;
+
+  FakeSceneOptions options_;
+  std::shared_ptr<const BodyModel> model_;
+  std::shared_ptr<const Motion> motion_;
+  Rig rig_;
+  int64_t period_ns_ = 0;
+  std::vector<cv::Mat> backgrounds_;
+  // A long strip of Gaussian noise, split into its positive and negative parts, read at a
+  // per-frame offset.
+  std::vector<uint8_t> noise_up_, noise_down_;
+  std::vector<cv::Vec3b> segment_colors_;
+
+  std::mutex epoch_mutex_;
+  std::optional<int64_t> epoch_ns_;
+  mutable std::mutex truth_mutex_;
+  mutable std::unique_ptr<SceneRenderer> truth_renderer_;  // built on the first query
+};
+
+}  // namespace mocap

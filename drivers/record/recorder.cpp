@@ -1,0 +1,365 @@
+// The recorder: path checks, session creation, and the writer thread's crash-safe write order.
+#include "drivers/record/recorder.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <future>
+
+#include <opencv2/imgcodecs.hpp>
+
+namespace mocap {
+namespace fs = std::filesystem;
+namespace {
+
+std::string errnoText(const std::string& what, const std::string& path) {
+  return what + " " + path + ": " + std::strerror(errno);
+}
+
+int64_t monotonicNowNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+std::string utcNowIso8601() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+bool writeAll(int fd, const void* data, std::size_t size) {
+  const char* bytes = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t written = ::write(fd, bytes, size);
+    if (written < 0 && errno == EINTR) continue;
+    if (written <= 0) return false;
+    bytes += written;
+    size -= static_cast<std::size_t>(written);
+  }
+  return true;
+}
+
+bool isInside(const fs::path& root, const fs::path& path) {
+  auto r = root.begin();
+  auto p = path.begin();
+  for (; r != root.end(); ++r, ++p) {
+    if (p == path.end() || *r != *p) return false;
+  }
+  return true;
+}
+
+// Writes a small file atomically (temp name, fsync, rename), so a crash never leaves half of it.
+Status writeFileAtomically(const fs::path& path, const std::string& content) {
+  const std::string temp = path.string() + ".tmp";
+  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return Status::Error(errnoText("cannot create", temp));
+  const bool ok = writeAll(fd, content.data(), content.size()) && ::fsync(fd) == 0;
+  const std::string error = ok ? "" : errnoText("cannot write", temp);
+  ::close(fd);
+  if (!ok) return Status::Error(error);
+  if (::rename(temp.c_str(), path.c_str()) != 0) return Status::Error(errnoText("cannot rename to", path.string()));
+  return Status::Ok();
+}
+
+}  // namespace
+
+Expected<fs::path> resolveInsideRoot(const fs::path& root, const fs::path& dir) {
+  std::error_code error;
+  const fs::path canonical_root = fs::canonical(root, error);
+  if (error || !fs::is_directory(canonical_root)) {
+    return Status::Error("recording root " + root.string() + " is not an existing directory");
+  }
+  if (dir.empty()) return Status::Error("session path is empty");
+  for (const fs::path& part : dir) {
+    if (part == "..") return Status::Error("session path " + dir.string() + " contains '..'");
+  }
+  const fs::path full = dir.is_absolute() ? dir : canonical_root / dir;
+  // Resolves every symlink along the part that exists, so a link pointing out is caught.
+  const fs::path resolved = fs::weakly_canonical(full, error);
+  if (error) return Status::Error("session path " + full.string() + ": " + error.message());
+  if (!isInside(canonical_root, resolved) || resolved == canonical_root) {
+    return Status::Error("session path " + dir.string() + " is outside the recording root " +
+                         canonical_root.string());
+  }
+  return resolved;
+}
+
+Recorder::Recorder(fs::path root, RecorderOptions options)
+    : root_(std::move(root)), options_(options) {}
+
+Recorder::~Recorder() { close(); }
+
+Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras) {
+  if (isOpen()) return Status::Error("recorder: already recording to " + session_.string());
+  if (cameras.empty()) return Status::Error("recorder: no cameras to record");
+  if (!rig.empty() && rig.size() != cameras.size()) {
+    return Status::Error("recorder: the rig has " + std::to_string(rig.size()) + " cameras, the session " +
+                         std::to_string(cameras.size()));
+  }
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    if (cvTypeOfPixelFormat(cameras[i].pixel_format) < 0 || cameras[i].width <= 0 || cameras[i].height <= 0) {
+      return Status::Error("recorder: camera " + std::to_string(i) + " (" + cameras[i].name +
+                           "): needs a positive size and pixel format " + kPixelGray + " or " + kPixelBgr);
+    }
+  }
+  Expected<fs::path> resolved = resolveInsideRoot(root_, dir);
+  if (!resolved.ok()) return Status::Error("recorder: " + resolved.error());
+  const fs::path session = resolved.value();
+  std::error_code error;
+  if (fs::exists(session, error)) {
+    if (!fs::is_directory(session, error)) return Status::Error("recorder: " + session.string() + " exists and is not a directory");
+    if (!fs::is_empty(session, error)) return Status::Error("recorder: " + session.string() + " exists and is not empty");
+  }
+  fs::create_directories(session, error);
+  if (error) return Status::Error("recorder: cannot create " + session.string() + ": " + error.message());
+  // Checked again now that it exists: a symlink swapped in meanwhile must not lead us out.
+  Expected<fs::path> created = resolveInsideRoot(root_, session);
+  if (!created.ok()) return Status::Error("recorder: " + created.error());
+
+  SessionManifest manifest;
+  manifest.software_version = MOCAP_VERSION;
+  manifest.start_time_utc = utcNowIso8601();
+  manifest.start_monotonic_ns = monotonicNowNs();
+  manifest.calibration_file = rig.empty() ? "" : kCalibrationFile;
+  manifest.cameras = cameras;
+  if (!rig.empty()) {
+    try {
+      saveRig((session / kCalibrationFile).string(), rig);
+    } catch (const std::exception& e) {
+      return Status::Error(std::string("recorder: ") + e.what());
+    }
+  }
+  files_.assign(cameras.size(), CameraFiles{});
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const fs::path camera_dir = session / cameraDirectoryName(static_cast<int>(i));
+    fs::create_directory(camera_dir, error);
+    if (error) {
+      closeFiles();
+      return Status::Error("recorder: cannot create " + camera_dir.string() + ": " + error.message());
+    }
+    const std::string index_path = (camera_dir / kIndexFile).string();
+    files_[i].dir_fd = ::open(camera_dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    files_[i].index_fd = ::open(index_path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    const std::string header = std::string(kIndexHeader) + "\n";
+    if (files_[i].dir_fd < 0 || files_[i].index_fd < 0 ||
+        !writeAll(files_[i].index_fd, header.data(), header.size())) {
+      const std::string message = errnoText("recorder: cannot create", index_path);
+      closeFiles();
+      return Status::Error(message);
+    }
+  }
+  const std::string sets_path = (session / kSetsFile).string();
+  sets_fd_ = ::open(sets_path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  const std::string sets_header = std::string(kSetsHeader) + "\n";
+  if (sets_fd_ < 0 || !writeAll(sets_fd_, sets_header.data(), sets_header.size())) {
+    const std::string message = errnoText("recorder: cannot create", sets_path);
+    closeFiles();
+    return Status::Error(message);
+  }
+  // The manifest goes last: a directory without one is not a session, whatever else it holds.
+  if (Status status = writeFileAtomically(session / kManifestFile, emitManifest(manifest)); !status.ok()) {
+    closeFiles();
+    return Status::Error("recorder: " + status.message());
+  }
+  session_ = session;
+  cameras_ = cameras;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_ = {};
+    queue_.clear();
+    closing_ = false;
+  }
+  last_index_sync_ns_ = monotonicNowNs();
+  writer_ = std::thread([this] { writerLoop(); });
+  return Status::Ok();
+}
+
+void Recorder::write(const FrameSet& set) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!writer_.joinable() || closing_) return;
+    ++stats_.sets_received;
+    // Drop the newest rather than block: the pipeline's latency matters more than the recording,
+    // and the queued sets are already in time order.
+    if (queue_.size() >= options_.queue_sets) {
+      ++stats_.sets_dropped;
+      return;
+    }
+    queue_.push_back(set);
+  }
+  queued_.notify_one();
+}
+
+Status Recorder::close() {
+  if (!writer_.joinable()) return Status::Ok();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    closing_ = true;
+  }
+  queued_.notify_one();
+  writer_.join();
+  syncIndexes();
+  closeFiles();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (stats_.write_errors > 0) return Status::Error("recorder: " + stats_.last_error);
+  return Status::Ok();
+}
+
+RecorderStats Recorder::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+void Recorder::writerLoop() {
+  for (;;) {
+    FrameSet set;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      queued_.wait(lock, [this] { return closing_ || !queue_.empty(); });
+      if (queue_.empty()) return;  // closing and drained
+      set = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    if (writeSet(set)) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++stats_.sets_written;
+    }
+    if (options_.durability == Durability::kPowerLoss && monotonicNowNs() - last_index_sync_ns_ > 1'000'000'000) {
+      syncIndexes();
+    }
+  }
+}
+
+bool Recorder::writeSet(const FrameSet& set) {
+  std::string present(cameras_.size(), '0');
+  std::vector<int> accepted;
+  uint64_t rejected = 0;
+  for (std::size_t c = 0; c < set.frames.size(); ++c) {
+    if (!set.frames[c]) continue;
+    const cv::Mat& image = set.frames[c]->image;
+    if (c >= cameras_.size() || image.cols != cameras_[c].width || image.rows != cameras_[c].height ||
+        image.type() != cvTypeOfPixelFormat(cameras_[c].pixel_format)) {
+      ++rejected;
+      continue;
+    }
+    accepted.push_back(static_cast<int>(c));
+  }
+  // PNG encoding is the bottleneck (libpng's row filtering alone takes tens of ms for a noisy
+  // 780x580 BGR frame): the cameras of a set are encoded in parallel, the first on this thread.
+  std::vector<std::vector<uint8_t>> encoded(accepted.size());
+  std::vector<std::future<bool>> helpers;
+  const auto encode = [&](std::size_t k) {
+    return cv::imencode(".png", set.frames[accepted[k]]->image, encoded[k],
+                        {cv::IMWRITE_PNG_COMPRESSION, options_.png_compression, cv::IMWRITE_PNG_STRATEGY,
+                         cv::IMWRITE_PNG_STRATEGY_RLE});
+  };
+  for (std::size_t k = 1; k < accepted.size(); ++k) helpers.push_back(std::async(std::launch::async, encode, k));
+  bool encoded_all = accepted.empty() || encode(0);
+  for (std::future<bool>& helper : helpers) encoded_all = helper.get() && encoded_all;
+  if (!encoded_all) fail("cannot encode a PNG of set " + std::to_string(set.sequence));
+  std::vector<std::pair<int, IndexRecord>> records;
+  for (std::size_t k = 0; encoded_all && k < accepted.size(); ++k) {
+    const int c = accepted[k];
+    const Frame& frame = *set.frames[c];
+    IndexRecord record{set.sequence, frame.sequence, frame.timestamp_ns, frame.dropped_before, frame.corrupt, ""};
+    if (!writeImage(c, encoded[k], record.file)) return false;
+    present[c] = '1';
+    records.emplace_back(c, std::move(record));
+  }
+  if (rejected > 0) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.frames_rejected += rejected;
+  }
+  if (records.empty()) return false;
+  if (options_.durability == Durability::kPowerLoss) {
+    // The renames must be on disk before any index line that names them.
+    for (const auto& [camera, record] : records) {
+      if (::fsync(files_[camera].dir_fd) != 0) {
+        fail(errnoText("cannot sync", (session_ / cameraDirectoryName(camera)).string()));
+        return false;
+      }
+    }
+  }
+  for (const auto& [camera, record] : records) {
+    const std::string line = formatIndexLine(record) + "\n";
+    if (!writeAll(files_[camera].index_fd, line.data(), line.size())) {
+      fail(errnoText("cannot append to", (session_ / cameraDirectoryName(camera) / kIndexFile).string()));
+      return false;
+    }
+  }
+  // The commit record: a set counts only once this line is whole.
+  const std::string line = formatSetLine({set.sequence, set.timestamp_ns, present}) + "\n";
+  if (!writeAll(sets_fd_, line.data(), line.size())) {
+    fail(errnoText("cannot append to", (session_ / kSetsFile).string()));
+    return false;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  stats_.frames_written += records.size();
+  return true;
+}
+
+bool Recorder::writeImage(int camera, const std::vector<uint8_t>& png, std::string& file_name) {
+  CameraFiles& files = files_[camera];
+  char name[32];
+  std::snprintf(name, sizeof name, "%06llu.png", static_cast<unsigned long long>(files.next_image));
+  const std::string temp = std::string(".") + name + ".tmp";
+  const std::string shown = (session_ / cameraDirectoryName(camera) / name).string();
+  const int fd = ::openat(files.dir_fd, temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    fail(errnoText("cannot create", shown));
+    return false;
+  }
+  bool ok = writeAll(fd, png.data(), png.size());
+  if (ok && options_.durability == Durability::kPowerLoss) ok = ::fdatasync(fd) == 0;
+  if (!ok) fail(errnoText("cannot write", shown));
+  ::close(fd);
+  // Renamed only when whole: a reader never sees a partial image under its final name.
+  if (ok && ::renameat(files.dir_fd, temp.c_str(), files.dir_fd, name) != 0) {
+    fail(errnoText("cannot rename into", shown));
+    ok = false;
+  }
+  if (!ok) {
+    ::unlinkat(files.dir_fd, temp.c_str(), 0);
+    return false;
+  }
+  ++files.next_image;
+  file_name = name;
+  return true;
+}
+
+void Recorder::syncIndexes() {
+  if (options_.durability != Durability::kPowerLoss) return;
+  for (const CameraFiles& files : files_) {
+    if (files.index_fd >= 0) ::fdatasync(files.index_fd);
+  }
+  if (sets_fd_ >= 0) ::fdatasync(sets_fd_);
+  last_index_sync_ns_ = monotonicNowNs();
+}
+
+void Recorder::fail(const std::string& message) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++stats_.write_errors;
+  stats_.last_error = message;
+}
+
+void Recorder::closeFiles() {
+  for (CameraFiles& files : files_) {
+    if (files.dir_fd >= 0) ::close(files.dir_fd);
+    if (files.index_fd >= 0) ::close(files.index_fd);
+  }
+  files_.clear();
+  if (sets_fd_ >= 0) ::close(sets_fd_);
+  sets_fd_ = -1;
+}
+
+}  // namespace mocap

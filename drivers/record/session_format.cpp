@@ -1,0 +1,177 @@
+// Reading and writing the session's manifest and CSV lines.
+#include "drivers/record/session_format.h"
+
+#include <charconv>
+#include <cstdio>
+#include <sstream>
+
+#include <opencv2/core.hpp>
+#include <yaml-cpp/yaml.h>
+
+namespace mocap {
+namespace {
+
+std::vector<std::string> splitCsv(const std::string& line) {
+  std::vector<std::string> columns;
+  std::string::size_type start = 0;
+  for (;;) {
+    const std::string::size_type comma = line.find(',', start);
+    columns.push_back(line.substr(start, comma - start));
+    if (comma == std::string::npos) return columns;
+    start = comma + 1;
+  }
+}
+
+template <typename T>
+bool parseNumber(const std::string& text, T& value) {
+  const char* end = text.data() + text.size();
+  const auto [ptr, error] = std::from_chars(text.data(), end, value);
+  return error == std::errc() && ptr == end && !text.empty();
+}
+
+bool parseFlag(const std::string& text, bool& value) {
+  if (text != "0" && text != "1") return false;
+  value = text == "1";
+  return true;
+}
+
+// A file name the reader may open: a plain name inside the camera directory.
+bool isPlainFileName(const std::string& name) {
+  return !name.empty() && name != "." && name != ".." && name.find('/') == std::string::npos;
+}
+
+}  // namespace
+
+std::string cameraDirectoryName(int camera) { return "cam" + std::to_string(camera); }
+
+int cvTypeOfPixelFormat(const std::string& pixel_format) {
+  if (pixel_format == kPixelGray) return CV_8UC1;
+  if (pixel_format == kPixelBgr) return CV_8UC3;
+  return -1;
+}
+
+std::string formatIndexLine(const IndexRecord& r) {
+  return std::to_string(r.set_sequence) + "," + std::to_string(r.camera_sequence) + "," +
+         std::to_string(r.timestamp_ns) + "," + std::to_string(r.dropped_before) + "," +
+         (r.corrupt ? "1" : "0") + "," + r.file;
+}
+
+std::string formatSetLine(const SetRecord& r) {
+  return std::to_string(r.set_sequence) + "," + std::to_string(r.timestamp_ns) + "," + r.present;
+}
+
+Expected<IndexRecord> parseIndexLine(const std::string& line) {
+  const std::vector<std::string> c = splitCsv(line);
+  if (c.size() != 6) {
+    return Status::Error("expected 6 columns (" + std::string(kIndexHeader) + "), found " +
+                         std::to_string(c.size()));
+  }
+  IndexRecord r;
+  if (!parseNumber(c[0], r.set_sequence)) return Status::Error("set_sequence '" + c[0] + "' is not a number");
+  if (!parseNumber(c[1], r.camera_sequence)) return Status::Error("camera_sequence '" + c[1] + "' is not a number");
+  if (!parseNumber(c[2], r.timestamp_ns)) return Status::Error("timestamp_ns '" + c[2] + "' is not a number");
+  if (!parseNumber(c[3], r.dropped_before)) return Status::Error("dropped_before '" + c[3] + "' is not a number");
+  if (!parseFlag(c[4], r.corrupt)) return Status::Error("corrupt '" + c[4] + "' is not 0 or 1");
+  if (!isPlainFileName(c[5])) return Status::Error("file '" + c[5] + "' is not a file name in the camera directory");
+  r.file = c[5];
+  return r;
+}
+
+Expected<SetRecord> parseSetLine(const std::string& line, std::size_t camera_count) {
+  const std::vector<std::string> c = splitCsv(line);
+  if (c.size() != 3) {
+    return Status::Error("expected 3 columns (" + std::string(kSetsHeader) + "), found " +
+                         std::to_string(c.size()));
+  }
+  SetRecord r;
+  if (!parseNumber(c[0], r.set_sequence)) return Status::Error("set_sequence '" + c[0] + "' is not a number");
+  if (!parseNumber(c[1], r.timestamp_ns)) return Status::Error("timestamp_ns '" + c[1] + "' is not a number");
+  if (c[2].size() != camera_count || c[2].find_first_not_of("01") != std::string::npos) {
+    return Status::Error("present '" + c[2] + "' is not one 0/1 per camera (" +
+                         std::to_string(camera_count) + " cameras)");
+  }
+  r.present = c[2];
+  return r;
+}
+
+std::string emitManifest(const SessionManifest& m) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "format_version" << YAML::Value << m.format_version;
+  out << YAML::Key << "software_version" << YAML::Value << m.software_version;
+  out << YAML::Key << "start_time_utc" << YAML::Value << m.start_time_utc;
+  out << YAML::Key << "start_monotonic_ns" << YAML::Value << m.start_monotonic_ns;
+  out << YAML::Key << "calibration" << YAML::Value << m.calibration_file;
+  out << YAML::Key << "cameras" << YAML::Value << YAML::BeginSeq;
+  for (const SessionCamera& c : m.cameras) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "name" << YAML::Value << c.name;
+    out << YAML::Key << "width" << YAML::Value << c.width;
+    out << YAML::Key << "height" << YAML::Value << c.height;
+    out << YAML::Key << "pixel_format" << YAML::Value << c.pixel_format;
+    out << YAML::Key << "fps" << YAML::Value << c.fps;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std::string& source) {
+  // yaml-cpp throws on malformed input and bad conversions; this is the edge that catches.
+  const auto fail = [&](const std::string& field, const std::string& reason) {
+    return Status::Error(source + ": " + field + ": " + reason);
+  };
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    return Status::Error(source + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  if (!root.IsMap()) return fail("(top level)", "expected a map");
+  SessionManifest m;
+  const auto scalar = [&](const YAML::Node& node, const std::string& field, auto& value) -> Status {
+    if (!node) return fail(field, "missing");
+    try {
+      value = node.as<std::remove_reference_t<decltype(value)>>();
+    } catch (const YAML::Exception&) {
+      return fail(field, "bad value '" + (node.IsScalar() ? node.Scalar() : std::string("(not a scalar)")) + "'");
+    }
+    return Status::Ok();
+  };
+  if (Status s = scalar(root["format_version"], "format_version", m.format_version); !s.ok()) return s;
+  if (m.format_version != kSessionFormatVersion) {
+    return fail("format_version", std::to_string(m.format_version) + " is not supported (this build reads " +
+                                      std::to_string(kSessionFormatVersion) + ")");
+  }
+  if (Status s = scalar(root["software_version"], "software_version", m.software_version); !s.ok()) return s;
+  if (Status s = scalar(root["start_time_utc"], "start_time_utc", m.start_time_utc); !s.ok()) return s;
+  if (Status s = scalar(root["start_monotonic_ns"], "start_monotonic_ns", m.start_monotonic_ns); !s.ok()) return s;
+  if (Status s = scalar(root["calibration"], "calibration", m.calibration_file); !s.ok()) return s;
+  if (m.calibration_file.find('/') != std::string::npos || m.calibration_file == "..") {
+    return fail("calibration", "'" + m.calibration_file + "' is not a file name in the session");
+  }
+  const YAML::Node cameras = root["cameras"];
+  if (!cameras) return fail("cameras", "missing");
+  if (!cameras.IsSequence() || cameras.size() == 0) return fail("cameras", "expected a non-empty list");
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const std::string prefix = "cameras[" + std::to_string(i) + "].";
+    SessionCamera c;
+    if (Status s = scalar(cameras[i]["name"], prefix + "name", c.name); !s.ok()) return s;
+    if (Status s = scalar(cameras[i]["width"], prefix + "width", c.width); !s.ok()) return s;
+    if (Status s = scalar(cameras[i]["height"], prefix + "height", c.height); !s.ok()) return s;
+    if (Status s = scalar(cameras[i]["pixel_format"], prefix + "pixel_format", c.pixel_format); !s.ok()) return s;
+    if (Status s = scalar(cameras[i]["fps"], prefix + "fps", c.fps); !s.ok()) return s;
+    if (c.width <= 0 || c.height <= 0) {
+      return fail(prefix + (c.width <= 0 ? "width" : "height"),
+                  std::to_string(c.width <= 0 ? c.width : c.height) + " is not a positive size");
+    }
+    if (cvTypeOfPixelFormat(c.pixel_format) < 0) {
+      return fail(prefix + "pixel_format", "'" + c.pixel_format + "' is not " + kPixelGray + " or " + kPixelBgr);
+    }
+    if (!(c.fps > 0)) return fail(prefix + "fps", "must be positive");
+    m.cameras.push_back(c);
+  }
+  return m;
+}
+
+}  // namespace mocap

@@ -1,0 +1,87 @@
+// The on-disk session format shared by the Recorder and the SessionReader.
+//
+//   <session>/manifest.yaml      cameras (name, width, height, pixel_format, fps), calibration file,
+//                                software version, start time (UTC and CLOCK_MONOTONIC)
+//   <session>/calibration.yaml   the rig, OpenCV FileStorage (saveRig); absent if no rig was given
+//   <session>/cam<i>/NNNNNN.png  lossless images, numbered consecutively per camera from 000000
+//   <session>/cam<i>/index.csv   one line per stored frame:
+//                                set_sequence,camera_sequence,timestamp_ns,dropped_before,corrupt,file
+//   <session>/sets.csv           one line per committed frame set: set_sequence,timestamp_ns,present
+//                                (present: one '1'/'0' per camera), written after the set's images
+//                                and index lines, so it is the commit record of the set.
+//
+// Plain PNG and CSV: every image tool, ffmpeg (-i cam0/%06d.png) and spreadsheet reads them.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "drivers/status.h"
+
+namespace mocap {
+
+inline constexpr const char* kManifestFile = "manifest.yaml";
+inline constexpr const char* kCalibrationFile = "calibration.yaml";
+inline constexpr const char* kSetsFile = "sets.csv";
+inline constexpr const char* kIndexFile = "index.csv";
+inline constexpr const char* kIndexHeader =
+    "set_sequence,camera_sequence,timestamp_ns,dropped_before,corrupt,file";
+inline constexpr const char* kSetsHeader = "set_sequence,timestamp_ns,present";
+inline constexpr int kSessionFormatVersion = 1;
+
+// Pixel formats a session stores, as FourCC names like VideoMode::pixel_format.
+inline constexpr const char* kPixelGray = "GREY";  // CV_8UC1
+inline constexpr const char* kPixelBgr = "BGR3";   // CV_8UC3, B, G, R
+
+struct SessionCamera {
+  std::string name;
+  int width = 0;
+  int height = 0;
+  std::string pixel_format = kPixelBgr;
+  double fps = 0;  // nominal rate
+};
+
+struct SessionManifest {
+  int format_version = kSessionFormatVersion;
+  std::string software_version;
+  std::string start_time_utc;   // ISO 8601
+  int64_t start_monotonic_ns = 0;
+  std::string calibration_file;  // relative to the session; empty: no calibration
+  std::vector<SessionCamera> cameras;
+};
+
+// One stored frame of one camera.
+struct IndexRecord {
+  uint64_t set_sequence = 0;
+  uint64_t camera_sequence = 0;
+  int64_t timestamp_ns = 0;
+  uint32_t dropped_before = 0;
+  bool corrupt = false;
+  std::string file;  // relative to the camera directory
+};
+
+// One committed frame set.
+struct SetRecord {
+  uint64_t set_sequence = 0;
+  int64_t timestamp_ns = 0;
+  std::string present;  // '1' where the camera has a frame in this set
+};
+
+// "cam<i>": the camera's directory inside the session.
+std::string cameraDirectoryName(int camera);
+// CV type a pixel format stores, or -1 if the format is not one a session can hold.
+int cvTypeOfPixelFormat(const std::string& pixel_format);
+
+std::string formatIndexLine(const IndexRecord& record);  // no trailing newline
+std::string formatSetLine(const SetRecord& record);
+// Parse one line (no newline); the error names the bad column, not the file.
+Expected<IndexRecord> parseIndexLine(const std::string& line);
+Expected<SetRecord> parseSetLine(const std::string& line, std::size_t camera_count);
+
+std::string emitManifest(const SessionManifest& manifest);
+// `source` names the file in errors: "<source>: <field>: <reason>".
+Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std::string& source);
+
+}  // namespace mocap

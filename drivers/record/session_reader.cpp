@@ -1,0 +1,241 @@
+// The session reader: manifest, calibration, index and commit files, image checks.
+#include "drivers/record/session_reader.h"
+
+#include <array>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+namespace mocap {
+namespace fs = std::filesystem;
+namespace {
+
+struct CsvFile {
+  std::vector<std::pair<int, std::string>> lines;  // line number, text; header excluded
+  bool truncated_tail = false;                     // the last line had no newline: dropped
+};
+
+Expected<CsvFile> readCsv(const fs::path& path, const std::string& header) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::Error(path.string() + ": missing or unreadable");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  CsvFile file;
+  std::size_t start = 0;
+  int number = 0;
+  while (start < text.size()) {
+    const std::size_t end = text.find('\n', start);
+    ++number;
+    if (end == std::string::npos) {
+      // The writer appends whole lines; a line without its newline was cut by a crash.
+      file.truncated_tail = true;
+      break;
+    }
+    std::string line = text.substr(start, end - start);
+    start = end + 1;
+    if (number == 1) {
+      if (line != header) return Status::Error(path.string() + ":1: header is '" + line + "', expected '" + header + "'");
+      continue;
+    }
+    file.lines.emplace_back(number, std::move(line));
+  }
+  if (number == 0 || (number == 1 && file.truncated_tail)) {
+    return Status::Error(path.string() + ": empty (no header line)");
+  }
+  return file;
+}
+
+bool readBytes(const fs::path& path, std::vector<uint8_t>& bytes) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return true;
+}
+
+uint32_t bigEndian32(const uint8_t* p) {
+  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | uint32_t{p[3]};
+}
+
+std::string describeFrame(int camera, const IndexRecord& record) {
+  return "frame " + std::to_string(record.camera_sequence) + " of camera " + std::to_string(camera) +
+         " (set " + std::to_string(record.set_sequence) + ")";
+}
+
+}  // namespace
+
+Expected<std::unique_ptr<SessionReader>> SessionReader::open(const fs::path& dir, SessionReadOptions options) {
+  std::unique_ptr<SessionReader> reader(new SessionReader());
+  reader->dir_ = dir;
+  if (Status status = reader->load(options); !status.ok()) return status;
+  return reader;
+}
+
+fs::path SessionReader::imagePath(int camera, const IndexRecord& record) const {
+  return dir_ / cameraDirectoryName(camera) / record.file;
+}
+
+Status SessionReader::load(const SessionReadOptions& options) {
+  const fs::path manifest_path = dir_ / kManifestFile;
+  std::ifstream manifest_file(manifest_path);
+  if (!manifest_file) return Status::Error(manifest_path.string() + ": missing or unreadable (not a session directory?)");
+  const std::string manifest_text((std::istreambuf_iterator<char>(manifest_file)), std::istreambuf_iterator<char>());
+  Expected<SessionManifest> manifest = parseManifest(manifest_text, manifest_path.string());
+  if (!manifest.ok()) return Status::Error(manifest.error());
+  manifest_ = std::move(manifest.value());
+  const std::size_t camera_count = manifest_.cameras.size();
+
+  if (!manifest_.calibration_file.empty()) {
+    const fs::path calibration = dir_ / manifest_.calibration_file;
+    try {
+      rig_ = loadRig(calibration.string());
+    } catch (const std::exception& e) {
+      return Status::Error(e.what());
+    }
+    if (rig_.size() != camera_count) {
+      return Status::Error(calibration.string() + ": camera_count is " + std::to_string(rig_.size()) +
+                           ", the manifest lists " + std::to_string(camera_count) + " cameras");
+    }
+  }
+
+  // Each camera's records by set sequence.
+  std::vector<std::map<uint64_t, IndexRecord>> records(camera_count);
+  for (std::size_t c = 0; c < camera_count; ++c) {
+    const fs::path index_path = dir_ / cameraDirectoryName(static_cast<int>(c)) / kIndexFile;
+    Expected<CsvFile> index = readCsv(index_path, kIndexHeader);
+    if (!index.ok()) return Status::Error(index.error());
+    if (index.value().truncated_tail) notes_.push_back(index_path.string() + ": dropped a truncated last line");
+    for (const auto& [number, line] : index.value().lines) {
+      Expected<IndexRecord> record = parseIndexLine(line);
+      const std::string where = index_path.string() + ":" + std::to_string(number) + ": ";
+      if (!record.ok()) return Status::Error(where + record.error());
+      const uint64_t set_sequence = record.value().set_sequence;
+      if (!records[c].empty() && set_sequence <= records[c].rbegin()->first) {
+        return Status::Error(where + "set_sequence " + std::to_string(set_sequence) + " does not increase");
+      }
+      records[c].emplace(set_sequence, std::move(record.value()));
+    }
+  }
+
+  const fs::path sets_path = dir_ / kSetsFile;
+  Expected<CsvFile> sets_file = readCsv(sets_path, kSetsHeader);
+  if (!sets_file.ok()) return Status::Error(sets_file.error());
+  if (sets_file.value().truncated_tail) notes_.push_back(sets_path.string() + ": dropped a truncated last line");
+  std::size_t referenced = 0;
+  for (const auto& [number, line] : sets_file.value().lines) {
+    const std::string where = sets_path.string() + ":" + std::to_string(number) + ": ";
+    Expected<SetRecord> parsed = parseSetLine(line, camera_count);
+    if (!parsed.ok()) return Status::Error(where + parsed.error());
+    const SetRecord& set_record = parsed.value();
+    if (!sets_.empty() && set_record.set_sequence <= sets_.back().sequence) {
+      return Status::Error(where + "set_sequence " + std::to_string(set_record.set_sequence) + " does not increase");
+    }
+    SessionSet set{set_record.set_sequence, set_record.timestamp_ns, std::vector<std::optional<IndexRecord>>(camera_count)};
+    for (std::size_t c = 0; c < camera_count; ++c) {
+      if (set_record.present[c] != '1') continue;
+      const auto found = records[c].find(set_record.set_sequence);
+      if (found == records[c].end()) {
+        return Status::Error(where + "set " + std::to_string(set_record.set_sequence) + " has a frame of camera " +
+                             std::to_string(c) + " but " + cameraDirectoryName(static_cast<int>(c)) + "/" +
+                             kIndexFile + " has no line for it");
+      }
+      if (Status status = checkImage(static_cast<int>(c), found->second, options.decode_all); !status.ok()) {
+        return status;
+      }
+      set.frames[c] = found->second;
+      ++referenced;
+    }
+    sets_.push_back(std::move(set));
+  }
+  std::size_t indexed = 0;
+  for (const auto& camera_records : records) indexed += camera_records.size();
+  if (indexed > referenced) {
+    notes_.push_back(std::to_string(indexed - referenced) +
+                     " indexed frames belong to no committed set (a set cut short): ignored");
+  }
+  return Status::Ok();
+}
+
+Status SessionReader::checkImage(int camera, const IndexRecord& record, bool decode) const {
+  const fs::path path = imagePath(camera, record);
+  const std::string where = path.string() + ": " + describeFrame(camera, record) + ": ";
+  std::vector<uint8_t> bytes;
+  std::error_code error;
+  const auto size = fs::file_size(path, error);
+  if (error) return Status::Error(where + "image missing (" + error.message() + ")");
+  const SessionCamera& cam = manifest_.cameras[camera];
+  if (decode) {
+    if (!readBytes(path, bytes)) return Status::Error(where + "image unreadable");
+    const cv::Mat image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+    if (image.empty()) return Status::Error(where + "not a decodable PNG");
+    if (image.cols != cam.width || image.rows != cam.height || image.type() != cvTypeOfPixelFormat(cam.pixel_format)) {
+      return Status::Error(where + "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                           " with " + std::to_string(image.channels()) + " channels, the manifest says " +
+                           std::to_string(cam.width) + "x" + std::to_string(cam.height) + " " + cam.pixel_format);
+    }
+    return Status::Ok();
+  }
+  // Cheap checks without decoding: the signature, the IHDR (size, 8-bit gray or RGB) and the
+  // closing IEND chunk, which a file cut short lacks.
+  static constexpr std::array<uint8_t, 8> kSignature{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  static constexpr std::array<uint8_t, 12> kEnd{0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
+  if (size < 33 + kEnd.size()) return Status::Error(where + "truncated PNG (" + std::to_string(size) + " bytes)");
+  std::ifstream in(path, std::ios::binary);
+  std::array<uint8_t, 33> head{};
+  std::array<uint8_t, 12> tail{};
+  in.read(reinterpret_cast<char*>(head.data()), head.size());
+  in.seekg(-static_cast<std::streamoff>(tail.size()), std::ios::end);
+  in.read(reinterpret_cast<char*>(tail.data()), tail.size());
+  if (!in) return Status::Error(where + "image unreadable");
+  if (!std::equal(kSignature.begin(), kSignature.end(), head.begin()) || std::memcmp(head.data() + 12, "IHDR", 4) != 0) {
+    return Status::Error(where + "not a PNG file");
+  }
+  if (tail != kEnd) return Status::Error(where + "truncated PNG (no IEND chunk)");
+  const uint32_t width = bigEndian32(head.data() + 16);
+  const uint32_t height = bigEndian32(head.data() + 20);
+  const int bit_depth = head[24];
+  const int color_type = head[25];
+  const int expected_color = cvTypeOfPixelFormat(cam.pixel_format) == CV_8UC1 ? 0 : 2;
+  if (static_cast<int>(width) != cam.width || static_cast<int>(height) != cam.height || bit_depth != 8 ||
+      color_type != expected_color) {
+    return Status::Error(where + "PNG is " + std::to_string(width) + "x" + std::to_string(height) + " depth " +
+                         std::to_string(bit_depth) + " colour type " + std::to_string(color_type) +
+                         ", the manifest says " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                         " " + cam.pixel_format);
+  }
+  return Status::Ok();
+}
+
+Expected<Frame> SessionReader::readFrame(std::size_t set_index, int camera) const {
+  if (set_index >= sets_.size() || camera < 0 || static_cast<std::size_t>(camera) >= manifest_.cameras.size()) {
+    return Status::Error(dir_.string() + ": no set " + std::to_string(set_index) + " / camera " + std::to_string(camera));
+  }
+  const std::optional<IndexRecord>& record = sets_[set_index].frames[camera];
+  if (!record) {
+    return Status::Error(dir_.string() + ": set " + std::to_string(sets_[set_index].sequence) + " has no frame of camera " +
+                         std::to_string(camera));
+  }
+  const fs::path path = imagePath(camera, *record);
+  const std::string where = path.string() + ": " + describeFrame(camera, *record) + ": ";
+  std::vector<uint8_t> bytes;
+  if (!readBytes(path, bytes)) return Status::Error(where + "image missing or unreadable");
+  Frame frame;
+  frame.image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  const SessionCamera& cam = manifest_.cameras[camera];
+  if (frame.image.empty()) return Status::Error(where + "not a decodable PNG");
+  if (frame.image.cols != cam.width || frame.image.rows != cam.height ||
+      frame.image.type() != cvTypeOfPixelFormat(cam.pixel_format)) {
+    return Status::Error(where + "image does not match the manifest's " + std::to_string(cam.width) + "x" +
+                         std::to_string(cam.height) + " " + cam.pixel_format);
+  }
+  frame.camera = camera;
+  frame.sequence = record->camera_sequence;
+  frame.timestamp_ns = record->timestamp_ns;
+  frame.dropped_before = record->dropped_before;
+  frame.corrupt = record->corrupt;
+  return frame;
+}
+
+}  // namespace mocap

@@ -1,0 +1,67 @@
+// Reads a recorded session (see session_format.h): validates it at open, then hands out its frame
+// sets in recorded order. Used by the fake driver's replay source and by tools.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drivers/frame.h"
+#include "drivers/record/session_format.h"
+#include "drivers/status.h"
+#include "tracker/camera.h"
+
+namespace mocap {
+
+// One committed frame set: per camera, its index record or nothing.
+struct SessionSet {
+  uint64_t sequence = 0;
+  int64_t timestamp_ns = 0;
+  std::vector<std::optional<IndexRecord>> frames;
+};
+
+struct SessionReadOptions {
+  // Decode every image at open (slow: the whole session) instead of checking each PNG's header
+  // against the manifest. Either way a missing file fails the open.
+  bool decode_all = false;
+};
+
+// Thread use: after open() the reader is immutable; readFrame() may be called from any threads.
+class SessionReader {
+ public:
+  // Fails with a message naming the file and field or frame: missing or bad manifest, unreadable
+  // calibration, an index line that does not parse, a set whose frame has no index line, a missing
+  // or truncated image, an image whose size or type is not the manifest's. A truncated last line of
+  // an index or of sets.csv (a crash mid-append) is dropped and noted in notes().
+  static Expected<std::unique_ptr<SessionReader>> open(const std::filesystem::path& dir,
+                                                       SessionReadOptions options = {});
+
+  const std::filesystem::path& path() const { return dir_; }
+  const SessionManifest& manifest() const { return manifest_; }
+  const std::vector<SessionCamera>& cameras() const { return manifest_.cameras; }
+  const Rig& rig() const { return rig_; }  // empty if the session has no calibration
+  const std::vector<SessionSet>& sets() const { return sets_; }
+  // What was tolerated at open (dropped partial lines, uncommitted frames), one line each.
+  const std::vector<std::string>& notes() const { return notes_; }
+
+  // The stored frame of `camera` in set `set_index` (an index into sets()), exactly as recorded:
+  // Frame::camera = camera, recorded sequence, timestamp and flags, decoded pixels. An error names
+  // the file and frame if the set has no frame of that camera or the image does not decode.
+  Expected<Frame> readFrame(std::size_t set_index, int camera) const;
+  std::filesystem::path imagePath(int camera, const IndexRecord& record) const;
+
+ private:
+  SessionReader() = default;
+  Status load(const SessionReadOptions& options);
+  Status checkImage(int camera, const IndexRecord& record, bool decode) const;
+
+  std::filesystem::path dir_;
+  SessionManifest manifest_;
+  Rig rig_;
+  std::vector<SessionSet> sets_;
+  std::vector<std::string> notes_;
+};
+
+}  // namespace mocap

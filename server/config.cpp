@@ -1,0 +1,290 @@
+// YAML configuration parsing and checking. Unknown keys are refused too: a misspelt key silently
+// ignored is a setting the operator believes is in force.
+#include "server/config.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+namespace mocap {
+
+const char* const kDefaultConfigYaml = R"yaml(
+# The fake two-camera scene: a synthetic body rendered into two virtual cameras.
+cameras:
+  - {driver: fake, device: scene, width: 780, height: 580, fps: 25}
+  - {driver: fake, device: scene, width: 780, height: 580, fps: 25}
+tracker: {method: factored, evaluations: 375, threads: 1}
+listen: 127.0.0.1:50051
+)yaml";
+
+std::optional<LogLevel> parseLogLevel(const std::string& name) {
+  if (name == "debug") return LogLevel::kDebug;
+  if (name == "info") return LogLevel::kInfo;
+  if (name == "warning" || name == "warn") return LogLevel::kWarning;
+  if (name == "error") return LogLevel::kError;
+  return std::nullopt;
+}
+
+namespace {
+
+class ConfigParser {
+ public:
+  ConfigParser(std::string source, std::filesystem::path base)
+      : source_(std::move(source)), base_(std::move(base)) {}
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& field,
+                         const std::string& reason) const {
+    std::ostringstream msg;
+    msg << source_;
+    if (node.IsDefined() && node.Mark().line >= 0) msg << ":" << node.Mark().line + 1;
+    msg << ": " << field << ": " << reason;
+    throw ConfigError(msg.str());
+  }
+
+  void onlyKeys(const YAML::Node& map, const std::string& field,
+                const std::set<std::string>& allowed) const {
+    if (!map.IsMap()) fail(map, field.empty() ? "(top level)" : field, "expected a map");
+    for (const auto& entry : map) {
+      const std::string key = entry.first.Scalar();
+      if (!allowed.count(key)) {
+        std::string known;
+        for (const std::string& k : allowed) known += (known.empty() ? "" : ", ") + k;
+        fail(entry.first, join(field, key), "unknown key (known: " + known + ")");
+      }
+    }
+  }
+
+  static std::string join(const std::string& parent, const std::string& key) {
+    return parent.empty() ? key : parent + "." + key;
+  }
+
+  std::string text(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsScalar() || node.Scalar().empty()) fail(node, field, "expected a non-empty string");
+    return node.Scalar();
+  }
+
+  double number(const YAML::Node& node, const std::string& field, double min, double max) const {
+    if (!node.IsScalar()) fail(node, field, "expected a number");
+    double value = 0;
+    try {
+      value = node.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(node, field, "expected a number, got '" + node.Scalar() + "'");
+    }
+    if (!std::isfinite(value) || value < min || value > max) {
+      std::ostringstream reason;
+      reason << "must be between " << min << " and " << max << ", got " << node.Scalar();
+      fail(node, field, reason.str());
+    }
+    return value;
+  }
+
+  int integer(const YAML::Node& node, const std::string& field, int min, int max) const {
+    const double value = number(node, field, min, max);
+    if (value != std::floor(value)) fail(node, field, "expected a whole number, got " + node.Scalar());
+    return static_cast<int>(value);
+  }
+
+  bool boolean(const YAML::Node& node, const std::string& field) const {
+    try {
+      return node.as<bool>();
+    } catch (const YAML::Exception&) {
+      fail(node, field, "expected true or false, got '" + node.Scalar() + "'");
+    }
+  }
+
+  // An existing regular file, resolved against the config's directory.
+  std::string existingFile(const YAML::Node& node, const std::string& field) const {
+    const std::filesystem::path path = resolve(text(node, field));
+    std::error_code error;
+    if (!std::filesystem::is_regular_file(path, error))
+      fail(node, field, "no such file: " + path.string());
+    return path.string();
+  }
+
+  std::filesystem::path resolve(const std::string& path) const {
+    const std::filesystem::path p(path);
+    return p.is_absolute() ? p : base_ / p;
+  }
+
+  CameraConfig camera(const YAML::Node& node, const std::string& field, int index) const {
+    onlyKeys(node, field,
+             {"driver", "device", "width", "height", "fps", "pixel_format", "exposure_us",
+              "gain_db", "trigger", "trigger_line"});
+    CameraConfig c;
+    c.index = index;
+    if (!node["driver"]) fail(node, field + ".driver", "missing");
+    c.driver = text(node["driver"], field + ".driver");
+    // "fake" is the daemon's own synthetic scene (mocap_server.cpp), with or without a registered
+    // fake driver.
+    if (c.driver != "fake" && !DriverRegistry::instance().create(c.driver)) {
+      std::string known;
+      for (const std::string& name : DriverRegistry::instance().names())
+        known += (known.empty() ? "" : ", ") + name;
+      fail(node["driver"], field + ".driver",
+           "no driver '" + c.driver + "' in this build (compiled in: " + known + ")");
+    }
+    if (node["device"]) c.device = text(node["device"], field + ".device");
+    if (node["width"]) c.width = integer(node["width"], field + ".width", 16, 16384);
+    if (node["height"]) c.height = integer(node["height"], field + ".height", 16, 16384);
+    if (node["fps"]) c.fps = number(node["fps"], field + ".fps", 0.1, 1000);
+    if (node["pixel_format"]) c.pixel_format = text(node["pixel_format"], field + ".pixel_format");
+    if (node["exposure_us"])
+      c.exposure_us = number(node["exposure_us"], field + ".exposure_us", 1, 10'000'000);
+    if (node["gain_db"]) c.gain_db = number(node["gain_db"], field + ".gain_db", -100, 100);
+    if (node["trigger"]) {
+      const std::string trigger = text(node["trigger"], field + ".trigger");
+      if (trigger == "free-run") {
+        c.trigger = TriggerMode::kFreeRun;
+      } else if (trigger == "software") {
+        c.trigger = TriggerMode::kSoftware;
+      } else if (trigger == "hardware") {
+        c.trigger = TriggerMode::kHardwareLine;
+      } else {
+        fail(node["trigger"], field + ".trigger",
+             "expected free-run, software or hardware, got '" + trigger + "'");
+      }
+    }
+    if (node["trigger_line"]) c.trigger_line = text(node["trigger_line"], field + ".trigger_line");
+    if (c.trigger == TriggerMode::kHardwareLine && c.trigger_line.empty())
+      fail(node, field + ".trigger_line", "required with trigger: hardware");
+    return c;
+  }
+
+  ServerConfig parse(const YAML::Node& root) const {
+    ServerConfig config;
+    config.source = source_;
+    onlyKeys(root, "",
+             {"cameras", "calibration", "body_model", "tracker", "sync", "listen",
+              "recording_directory", "tls", "auth", "log_level"});
+
+    const YAML::Node cameras = root["cameras"];
+    if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
+    if (!cameras.IsSequence() || cameras.size() == 0)
+      fail(cameras, "cameras", "expected a non-empty list of cameras");
+    for (std::size_t i = 0; i < cameras.size(); ++i) {
+      config.cameras.push_back(
+          camera(cameras[i], "cameras[" + std::to_string(i) + "]", static_cast<int>(i)));
+    }
+    for (std::size_t i = 1; i < config.cameras.size(); ++i) {
+      if (config.cameras[i].fps != config.cameras[0].fps)
+        fail(cameras[i]["fps"], "cameras[" + std::to_string(i) + "].fps",
+             "every camera of the rig must run at the same rate as cameras[0]");
+    }
+
+    if (root["calibration"]) config.calibration_file = existingFile(root["calibration"], "calibration");
+    if (root["body_model"]) {
+      const std::string model = text(root["body_model"], "body_model");
+      config.body_model =
+          model.rfind("builtin:", 0) == 0 ? model : existingFile(root["body_model"], "body_model");
+      if (model.rfind("builtin:", 0) == 0 && model != "builtin:hand")
+        fail(root["body_model"], "body_model", "unknown built-in model (known: builtin:hand)");
+    }
+
+    if (const YAML::Node tracker = root["tracker"]) {
+      onlyKeys(tracker, "tracker", {"method", "evaluations", "threads", "injection", "seed"});
+      TrackerSettings& t = config.tracker;
+      if (tracker["method"]) {
+        t.method = text(tracker["method"], "tracker.method");
+        if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
+          fail(tracker["method"], "tracker.method",
+               "expected factored, condensation or annealed, got '" + t.method + "'");
+      }
+      if (tracker["evaluations"])
+        t.evaluations = integer(tracker["evaluations"], "tracker.evaluations", 1, 10'000'000);
+      if (tracker["threads"]) t.threads = integer(tracker["threads"], "tracker.threads", 1, 256);
+      if (tracker["injection"])
+        t.injection = number(tracker["injection"], "tracker.injection", 0, 0.99);
+      if (tracker["seed"])
+        t.seed = static_cast<uint64_t>(integer(tracker["seed"], "tracker.seed", 0, 2'000'000'000));
+    }
+
+    if (const YAML::Node sync = root["sync"]) {
+      onlyKeys(sync, "sync", {"tolerance_ms", "deadline_ms"});
+      if (sync["tolerance_ms"])
+        config.sync.tolerance_ms = number(sync["tolerance_ms"], "sync.tolerance_ms", 0.01, 10'000);
+      if (sync["deadline_ms"])
+        config.sync.deadline_ms = number(sync["deadline_ms"], "sync.deadline_ms", 0.01, 60'000);
+    }
+
+    if (root["listen"]) {
+      config.listen = text(root["listen"], "listen");
+      if (config.listen.rfind(':') == std::string::npos)
+        fail(root["listen"], "listen", "expected host:port, got '" + config.listen + "'");
+    }
+
+    if (root["recording_directory"]) {
+      const YAML::Node node = root["recording_directory"];
+      const std::filesystem::path dir = resolve(text(node, "recording_directory"));
+      std::error_code error;
+      if (!std::filesystem::is_directory(dir, error))
+        fail(node, "recording_directory", "not an existing directory: " + dir.string());
+      config.recording_directory = std::filesystem::canonical(dir, error).string();
+    }
+
+    if (const YAML::Node tls = root["tls"]) {
+      onlyKeys(tls, "tls", {"cert", "key"});
+      if (!tls["cert"] || !tls["key"]) fail(tls, "tls", "needs both 'cert' and 'key'");
+      config.tls_cert_file = existingFile(tls["cert"], "tls.cert");
+      config.tls_key_file = existingFile(tls["key"], "tls.key");
+    }
+
+    if (const YAML::Node auth = root["auth"]) {
+      onlyKeys(auth, "auth", {"token", "token_file"});
+      if (auth["token"] && auth["token_file"])
+        fail(auth, "auth", "give either 'token' or 'token_file', not both");
+      if (auth["token"]) config.bearer_token = text(auth["token"], "auth.token");
+      if (auth["token_file"]) {
+        std::ifstream in(existingFile(auth["token_file"], "auth.token_file"));
+        std::getline(in, config.bearer_token);
+        if (config.bearer_token.empty())
+          fail(auth["token_file"], "auth.token_file", "the file's first line is empty");
+      }
+      if (config.bearer_token.size() < 16)
+        fail(auth, "auth", "the token must be at least 16 characters");
+    }
+
+    if (root["log_level"]) {
+      const std::string level = text(root["log_level"], "log_level");
+      const std::optional<LogLevel> parsed = parseLogLevel(level);
+      if (!parsed)
+        fail(root["log_level"], "log_level",
+             "expected debug, info, warning or error, got '" + level + "'");
+      config.log_level = *parsed;
+    }
+    return config;
+  }
+
+ private:
+  std::string source_;
+  std::filesystem::path base_;
+};
+
+}  // namespace
+
+ServerConfig parseConfig(const std::string& yaml_text, const std::string& source,
+                         const std::string& base_directory) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(source + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  if (!root.IsDefined() || root.IsNull()) throw ConfigError(source + ": the file is empty");
+  return ConfigParser(source, base_directory).parse(root);
+}
+
+ServerConfig loadConfigFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the configuration file");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::filesystem::path base = std::filesystem::absolute(path).parent_path();
+  return parseConfig(text.str(), path, base.string());
+}
+
+}  // namespace mocap

@@ -1,0 +1,70 @@
+// The daemon's configuration: the YAML file (or the embedded default) turned into typed settings,
+// every value checked at start so a bad one is refused with its file, line, field and reason.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "drivers/camera_driver.h"
+
+namespace mocap {
+
+// Thrown for any unusable configuration; what() is "<file>:<line>: <field>: <reason>".
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class LogLevel { kDebug, kInfo, kWarning, kError };
+// "debug", "info", "warning" (or "warn"), "error"; nullopt otherwise.
+std::optional<LogLevel> parseLogLevel(const std::string& name);
+
+struct TrackerSettings {
+  std::string method = "factored";  // "factored", "condensation" or "annealed"
+  int evaluations = 375;            // particle evaluations per frame
+  int threads = 1;                  // worker threads of the filter (counting the tracker thread)
+  double injection = 0.02;          // share of candidates from the static distribution
+  uint64_t seed = 1;                // the filters are deterministic for a seed
+};
+
+struct SyncSettings {
+  std::optional<double> tolerance_ms;  // default: a third of the frame period
+  std::optional<double> deadline_ms;   // default: two frame periods
+};
+
+struct ServerConfig {
+  std::string source = "<embedded default>";  // where it came from, for messages
+  std::vector<CameraConfig> cameras;
+  // OpenCV FileStorage rig file; empty: the rig the cameras' driver describes (fake scene).
+  std::string calibration_file;
+  // Body model YAML, or "builtin:hand"; empty: the model the cameras' driver describes.
+  std::string body_model;
+  TrackerSettings tracker;
+  SyncSettings sync;
+  std::string listen = "127.0.0.1:50051";
+  std::string recording_directory;  // empty: recording is off
+  std::string tls_cert_file;        // both or neither
+  std::string tls_key_file;
+  std::string bearer_token;         // empty: no token required
+  LogLevel log_level = LogLevel::kInfo;
+  // Replay a recorded session instead of the configured cameras.
+  std::string replay_directory;
+  bool as_fast_as_possible = false;  // replay: no pacing at the recorded rate
+
+  bool replay() const { return !replay_directory.empty(); }
+};
+
+// The configuration used when mocapd is started without --config: the fake two-camera scene at
+// 780x580 and 25 Hz, listening on loopback.
+extern const char* const kDefaultConfigYaml;
+
+// Parses and checks a configuration; `source` names it in messages. Relative paths in it are
+// resolved against `base_directory` (the config file's directory). Throws ConfigError.
+ServerConfig parseConfig(const std::string& yaml_text, const std::string& source,
+                         const std::string& base_directory);
+ServerConfig loadConfigFile(const std::string& path);
+
+}  // namespace mocap

@@ -1,0 +1,220 @@
+// Assembling and tearing down the daemon.
+#include "server/mocap_server.h"
+
+#include <chrono>
+#include <fstream>
+#include <sstream>
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include "drivers/fake/fake_driver.h"
+#include "server/log.h"
+#include "tracker/experiments/hand_experiment.h"
+
+namespace mocap {
+namespace {
+
+// How long shutdown lets the pose streams deliver their last pose before cancelling them.
+constexpr auto kShutdownGrace = std::chrono::seconds(2);
+
+Expected<std::string> readFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Status::Error(path + ": cannot read");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+bool isFakeScene(const CameraConfig& camera) { return camera.driver == "fake"; }
+
+// The fake driver as the daemon configures it: the scene built from the camera list, and the
+// configured model and calibration if any (the scene's defaults otherwise).
+FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel* model,
+                                    const Rig* rig) {
+  FakeDriverOptions options;
+  const CameraConfig& first = config.cameras.front();
+  options.scene.cameras = static_cast<int>(config.cameras.size());
+  options.scene.width = first.width;
+  options.scene.height = first.height;
+  options.scene.fps = first.fps;
+  options.scene.gray = first.pixel_format == "GREY";
+  options.scene.seed = config.tracker.seed;
+  if (model) options.scene.model = std::make_shared<const BodyModel>(*model);
+  if (rig) options.scene.rig = *rig;
+  return options;
+}
+
+}  // namespace
+
+Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& config) {
+  std::unique_ptr<MocapServer> server(new MocapServer(config));
+  PipelineInputs inputs;
+  try {
+    if (!config.body_model.empty()) {
+      server->model_ = std::make_unique<BodyModel>(config.body_model == "builtin:hand"
+                                                       ? builtinHandModel()
+                                                       : loadBodyModel(config.body_model));
+    }
+    if (!config.calibration_file.empty())
+      server->rig_ = std::make_unique<Rig>(loadRig(config.calibration_file));
+  } catch (const std::exception& e) {
+    return Status::Error(e.what());
+  }
+
+  if (config.replay()) {
+    Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(config.replay_directory);
+    if (!reader.ok()) return Status::Error("replay: " + reader.error());
+    std::shared_ptr<const SessionReader> session = std::move(reader.value());
+    for (std::size_t c = 0; c < session->cameras().size(); ++c) {
+      const SessionCamera& recorded = session->cameras()[c];
+      OpenedCamera camera;
+      camera.config.index = static_cast<int>(c);
+      camera.config.driver = "replay";
+      camera.config.device = config.replay_directory;
+      camera.config.width = recorded.width;
+      camera.config.height = recorded.height;
+      camera.config.fps = recorded.fps > 0 ? recorded.fps : 25.0;
+      camera.config.pixel_format = recorded.pixel_format;
+      camera.info = {"replay", recorded.name, "recorded session camera",
+                     {{recorded.width, recorded.height, recorded.fps, recorded.pixel_format}}};
+      inputs.cameras.push_back(std::move(camera));
+    }
+    if (!server->rig_) {
+      if (session->rig().empty())
+        return Status::Error("replay: the session has no calibration and the configuration "
+                             "names no calibration file");
+      server->rig_ = std::make_unique<Rig>(session->rig());
+    }
+    if (!server->model_) server->model_ = std::make_unique<BodyModel>(builtinHandModel());
+    inputs.replay = std::move(session);
+  } else {
+    bool any_fake = false, all_fake = true;
+    for (const CameraConfig& camera : config.cameras) {
+      any_fake = any_fake || isFakeScene(camera);
+      all_fake = all_fake && isFakeScene(camera);
+    }
+    if (any_fake && !all_fake)
+      return Status::Error(config.source + ": cameras: the fake scene cannot be mixed with real cameras");
+    if (any_fake) {
+      FakeDriver driver(fakeDriverOptions(config, server->model_.get(), server->rig_.get()));
+      Expected<std::shared_ptr<FakeScene>> scene = driver.scene();
+      if (!scene.ok()) return Status::Error("fake scene: " + scene.error());
+      std::shared_ptr<FakeScene> shared = scene.value();
+      if (!server->model_) server->model_ = std::make_unique<BodyModel>(shared->model());
+      if (!server->rig_) server->rig_ = std::make_unique<Rig>(shared->rig());
+      for (const CameraConfig& camera_config : config.cameras) {
+        Expected<std::unique_ptr<Camera>> opened = driver.open(camera_config);
+        if (!opened.ok()) {
+          return Status::Error("cameras[" + std::to_string(camera_config.index) +
+                               "] (fake " + camera_config.device + "): " + opened.error());
+        }
+        OpenedCamera camera;
+        camera.config = camera_config;
+        camera.camera = std::move(opened.value());
+        camera.info = camera.camera->info();
+        inputs.cameras.push_back(std::move(camera));
+      }
+      // Until silhouette extraction is wired in, the tracker sees the scene's true silhouettes.
+      inputs.ground_truth = [shared](uint64_t sequence) {
+        return shared->groundTruth(sequence).silhouettes;
+      };
+    } else {
+      if (!server->model_)
+        return Status::Error(config.source + ": body_model: required with real cameras");
+      if (!server->rig_)
+        return Status::Error(config.source + ": calibration: required with real cameras");
+      for (const CameraConfig& camera_config : config.cameras) {
+        std::unique_ptr<Driver> driver = DriverRegistry::instance().create(camera_config.driver);
+        if (!driver) return Status::Error("cameras[" + std::to_string(camera_config.index) +
+                                          "]: no driver '" + camera_config.driver + "'");
+        Expected<std::unique_ptr<Camera>> opened = driver->open(camera_config);
+        if (!opened.ok()) {
+          return Status::Error("cameras[" + std::to_string(camera_config.index) + "] (" +
+                               camera_config.driver + " " + camera_config.device +
+                               "): " + opened.error());
+        }
+        OpenedCamera camera;
+        camera.config = camera_config;
+        camera.camera = std::move(opened.value());
+        camera.info = camera.camera->info();
+        inputs.cameras.push_back(std::move(camera));
+      }
+    }
+  }
+
+  try {
+    server->pipeline_ = std::make_unique<Pipeline>(server->config_, *server->model_,
+                                                   *server->rig_, std::move(inputs),
+                                                   server->publisher_);
+  } catch (const std::exception& e) {
+    return Status::Error(e.what());
+  }
+  server->service_ = std::make_unique<MocapServiceImpl>(server->config_, *server->model_,
+                                                        *server->pipeline_, server->publisher_);
+
+  std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
+  if (!config.tls_cert_file.empty()) {
+    Expected<std::string> cert = readFile(config.tls_cert_file);
+    Expected<std::string> key = readFile(config.tls_key_file);
+    if (!cert.ok()) return Status::Error(cert.error());
+    if (!key.ok()) return Status::Error(key.error());
+    grpc::SslServerCredentialsOptions tls;
+    tls.pem_key_cert_pairs.push_back({key.value(), cert.value()});
+    credentials = grpc::SslServerCredentials(tls);
+  }
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(config.listen, credentials, &server->port_);
+  builder.RegisterService(server->service_.get());
+  server->server_ = builder.BuildAndStart();
+  if (!server->server_ || server->port_ == 0)
+    return Status::Error("cannot listen on " + config.listen + " (address in use or invalid)");
+  return server;
+}
+
+MocapServer::~MocapServer() { shutdown(); }
+
+Status MocapServer::start() {
+  const Status started = pipeline_->start();
+  if (!started.ok()) return started;
+  const std::string host = config_.listen.substr(0, config_.listen.rfind(':'));
+  logInfo() << "serving " << model_->name << " tracking (" << config_.tracker.method << ", "
+            << config_.tracker.evaluations << " evaluations/frame) from "
+            << pipeline_->cameras().size() << " camera(s)"
+            << (config_.replay() ? " replayed from " + config_.replay_directory : "") << " on "
+            << host << ":" << port_ << (config_.tls_cert_file.empty() ? "" : " with TLS")
+            << (config_.bearer_token.empty() ? "" : ", bearer token required");
+  return Status::Ok();
+}
+
+void MocapServer::shutdown() {
+  if (shut_down_) return;
+  shut_down_ = true;
+  if (server_) server_->GetHealthCheckService()->Shutdown();
+  if (pipeline_) pipeline_->stop();
+  publisher_.close();
+  if (server_) server_->Shutdown(std::chrono::system_clock::now() + kShutdownGrace);
+  logInfo() << "stopped";
+}
+
+std::string describeAvailableCameras() {
+  std::ostringstream out;
+  for (const std::string& name : DriverRegistry::instance().names()) {
+    std::unique_ptr<Driver> driver = DriverRegistry::instance().create(name);
+    const std::vector<CameraInfo> cameras = driver->enumerate();
+    if (cameras.empty()) out << name << ": no cameras\n";
+    for (const CameraInfo& camera : cameras) {
+      out << camera.driver << "  " << camera.id << "  " << camera.model << "\n";
+      for (const VideoMode& mode : camera.modes) {
+        out << "    " << mode.width << "x" << mode.height << " " << mode.pixel_format;
+        if (mode.fps > 0) out << " @ " << mode.fps << " fps";
+        out << "\n";
+      }
+    }
+  }
+  return out.str();
+}
+
+}  // namespace mocap

@@ -1,0 +1,173 @@
+// The MocapService RPCs.
+#include "server/mocap_service.h"
+
+#include <ctime>
+
+#include "server/log.h"
+#include "server/pose_stream.h"
+#include "server/proto_conversion.h"
+#include "server/stats.h"
+
+namespace mocap {
+namespace {
+
+// Compares without an early exit, so the time taken does not tell how much of a guess matched.
+bool sameSecret(const std::string& a, const std::string& b) {
+  unsigned char difference = a.size() == b.size() ? 0 : 1;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    difference |= static_cast<unsigned char>(a[i] ^ (i < b.size() ? b[i] : 0));
+  return difference == 0;
+}
+
+std::string sessionNameNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char name[32];
+  std::strftime(name, sizeof name, "%Y%m%dT%H%M%SZ", &utc);
+  return name;
+}
+
+grpc::Status recordingStatus(const RecordingResult& result) {
+  switch (result.error) {
+    case RecordingError::kNone: return grpc::Status::OK;
+    case RecordingError::kBadPath:
+      return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, result.message);
+    case RecordingError::kOutsideRoot:
+      return grpc::Status(grpc::StatusCode::PERMISSION_DENIED, result.message);
+    case RecordingError::kNotConfigured:
+    case RecordingError::kBusy:
+    case RecordingError::kNotRecording:
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, result.message);
+    case RecordingError::kIo: return grpc::Status(grpc::StatusCode::INTERNAL, result.message);
+  }
+  return grpc::Status(grpc::StatusCode::UNKNOWN, result.message);
+}
+
+}  // namespace
+
+MocapServiceImpl::MocapServiceImpl(const ServerConfig& config, const BodyModel& model,
+                                   Pipeline& pipeline, PosePublisher& publisher)
+    : config_(config),
+      model_(model),
+      pipeline_(pipeline),
+      publisher_(publisher),
+      started_ns_(monotonicNowNs()) {}
+
+grpc::Status MocapServiceImpl::authorize(const grpc::CallbackServerContext* context) const {
+  if (config_.bearer_token.empty()) return grpc::Status::OK;
+  const auto& metadata = context->client_metadata();
+  const auto found = metadata.find("authorization");
+  if (found != metadata.end()) {
+    const std::string value(found->second.data(), found->second.size());
+    const std::string prefix = "Bearer ";
+    if (value.rfind(prefix, 0) == 0 && sameSecret(value.substr(prefix.size()), config_.bearer_token))
+      return grpc::Status::OK;
+  }
+  return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
+                      "this daemon needs 'authorization: Bearer <token>' metadata");
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::finish(grpc::CallbackServerContext* context,
+                                                   const grpc::Status& status) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(status);
+  return reactor;
+}
+
+grpc::ServerWriteReactor<v1::Pose>* MocapServiceImpl::StreamPoses(
+    grpc::CallbackServerContext* context, const v1::StreamPosesRequest* request) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return refusedPoseStream(allowed);
+  std::vector<int> joints;
+  for (const std::string& name : request->joints()) {
+    const int index = model_.pointIndex(name);
+    if (index < 0) {
+      return refusedPoseStream(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                            "unknown joint '" + name + "' (see GetSkeleton)"));
+    }
+    joints.push_back(index);
+  }
+  logInfo() << "pose subscriber " << context->peer() << " joined";
+  return startPoseStream(publisher_, model_, std::move(joints));
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::GetSkeleton(grpc::CallbackServerContext* context,
+                                                        const v1::GetSkeletonRequest*,
+                                                        v1::Skeleton* response) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  skeletonToProto(model_, *response);
+  return finish(context, grpc::Status::OK);
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::GetStatus(grpc::CallbackServerContext* context,
+                                                      const v1::GetStatusRequest*,
+                                                      v1::Status* response) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  const PipelineStatus status = pipeline_.status();
+  response->set_version(MOCAP_VERSION);
+  response->set_mode(config_.replay() ? "replay" : "live");
+  response->set_uptime_ns(monotonicNowNs() - started_ns_);
+  const std::vector<OpenedCamera>& cameras = pipeline_.cameras();
+  for (std::size_t c = 0; c < cameras.size() && c < status.cameras.size(); ++c)
+    cameraStatusToProto(cameras[c], status.cameras[c], status.running, *response->add_cameras());
+  response->set_tracker_fps(status.tracker_fps);
+  response->set_poses_published(status.poses_published);
+  response->set_frame_sets_skipped(status.frame_sets_skipped);
+  v1::LatencyPercentiles* latency = response->mutable_latency();
+  latency->set_p50_ms(status.latency.p50_ms);
+  latency->set_p90_ms(status.latency.p90_ms);
+  latency->set_p99_ms(status.latency.p99_ms);
+  latency->set_max_ms(status.latency.max_ms);
+  latency->set_samples(static_cast<uint32_t>(status.latency.samples));
+  response->set_subscribers(static_cast<uint32_t>(publisher_.subscriberCount()));
+  recordingToProto(status.recording, *response->mutable_recording());
+  response->set_tracker_method(config_.tracker.method);
+  response->set_evaluations_per_frame(status.evaluations_per_frame);
+  return finish(context, grpc::Status::OK);
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::ListCameras(grpc::CallbackServerContext* context,
+                                                        const v1::ListCamerasRequest*,
+                                                        v1::ListCamerasResponse* response) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  for (const OpenedCamera& camera : pipeline_.cameras())
+    cameraInfoToProto(camera, *response->add_cameras());
+  return finish(context, grpc::Status::OK);
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::StartRecording(
+    grpc::CallbackServerContext* context, const v1::StartRecordingRequest* request,
+    v1::RecordingState* response) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  const std::string path = request->path().empty() ? sessionNameNow() : request->path();
+  const RecordingResult result = pipeline_.startRecording(path);
+  if (result.error != RecordingError::kNone) {
+    logWarning() << "recording request '" << path << "' from " << context->peer()
+                 << " refused: " << result.message;
+    return finish(context, recordingStatus(result));
+  }
+  recordingToProto(result.status, *response);
+  return finish(context, grpc::Status::OK);
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::StopRecording(grpc::CallbackServerContext* context,
+                                                          const v1::StopRecordingRequest*,
+                                                          v1::RecordingState* response) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  const RecordingResult result = pipeline_.stopRecording();
+  if (result.error != RecordingError::kNone) return finish(context, recordingStatus(result));
+  recordingToProto(result.status, *response);
+  return finish(context, grpc::Status::OK);
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::CaptureBackground(
+    grpc::CallbackServerContext* context, const v1::CaptureBackgroundRequest*,
+    v1::CaptureBackgroundResponse*) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  return finish(context,
+                grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
+                             "background capture is not wired yet: this daemon thresholds the "
+                             "camera images directly (tracker/vision's extractor comes next)"));
+}
+
+}  // namespace mocap

@@ -1,0 +1,362 @@
+// The capture-to-pose pipeline: stage threads, hand-offs, the recorder tap and the meters.
+#include "server/pipeline.h"
+
+#include <chrono>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+
+#include "drivers/fake/replay_pump.h"
+#include "server/log.h"
+
+namespace mocap {
+namespace {
+
+// How often a stage waiting for input rechecks whether the pipeline is stopping.
+constexpr auto kPollInterval = std::chrono::milliseconds(100);
+
+FilterOptions filterOptions(const TrackerSettings& settings) {
+  FilterOptions options;
+  options.evaluations_per_frame = settings.evaluations;
+  options.injection_share = settings.injection;
+  options.seed = settings.seed;
+  return options;
+}
+
+}  // namespace
+
+Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig& rig,
+                   PipelineInputs inputs, PosePublisher& publisher)
+    : config_(config),
+      model_(model),
+      rig_(rig),
+      cameras_(std::move(inputs.cameras)),
+      replay_(std::move(inputs.replay)),
+      ground_truth_(std::move(inputs.ground_truth)),
+      publisher_(publisher),
+      masks_(config.replay() ? Handoff<MaskSet>::Mode::kLossless
+                             : Handoff<MaskSet>::Mode::kLatestWins),
+      poses_(config.replay() ? Handoff<std::shared_ptr<Pose>>::Mode::kLossless
+                             : Handoff<std::shared_ptr<Pose>>::Mode::kLatestWins),
+      kinematics_(model) {
+  if (cameras_.empty()) throw std::invalid_argument("no cameras");
+  if (rig_.size() != cameras_.size()) {
+    throw std::invalid_argument("the calibration has " + std::to_string(rig_.size()) +
+                                " cameras but " + std::to_string(cameras_.size()) +
+                                " are configured");
+  }
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    const CameraConfig& camera = cameras_[c].config;
+    if (camera.width != rig_[c].width || camera.height != rig_[c].height) {
+      throw std::invalid_argument(
+          "cameras[" + std::to_string(c) + "] is " + std::to_string(camera.width) + "x" +
+          std::to_string(camera.height) + " but its calibration is " +
+          std::to_string(rig_[c].width) + "x" + std::to_string(rig_[c].height));
+    }
+    camera_rates_.push_back(std::make_unique<RateMeter>());
+  }
+  camera_cv_types_.assign(cameras_.size(), -1);
+
+  SyncConfig sync;
+  sync.camera_count = static_cast<int>(cameras_.size());
+  sync.frame_period = std::chrono::nanoseconds(
+      static_cast<int64_t>(1e9 / cameras_.front().config.fps));
+  if (config.sync.tolerance_ms)
+    sync.tolerance = std::chrono::nanoseconds(static_cast<int64_t>(*config.sync.tolerance_ms * 1e6));
+  if (config.sync.deadline_ms)
+    sync.deadline = std::chrono::nanoseconds(static_cast<int64_t>(*config.sync.deadline_ms * 1e6));
+  sync.mode = replay_ ? SyncMode::kReplay : SyncMode::kLive;
+  Expected<std::unique_ptr<FrameSynchronizer>> created = FrameSynchronizer::create(sync);
+  if (!created.ok()) throw std::invalid_argument("synchronizer: " + created.error());
+  synchronizer_ = std::move(created.value());
+
+  pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
+  filter_ = makeFilter(config.tracker.method, model_, rig_, filterOptions(config.tracker), *pool_);
+  filter_->reset(model_.neutralPose());
+}
+
+Pipeline::~Pipeline() { stop(); }
+
+void Pipeline::setPoseObserver(std::function<void(const Pose&)> observer) {
+  observer_ = std::move(observer);
+}
+
+Status Pipeline::start() {
+  if (running_.exchange(true)) return Status::Error("the pipeline is already running");
+  mask_thread_ = std::thread([this] { maskLoop(); });
+  tracker_thread_ = std::thread([this] { trackerLoop(); });
+  publisher_thread_ = std::thread([this] { publisherLoop(); });
+  if (replay_) {
+    replay_thread_ = std::thread([this] { replayLoop(); });
+    return Status::Ok();
+  }
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    RateMeter* rate = camera_rates_[c].get();
+    FrameSynchronizer* synchronizer = synchronizer_.get();
+    const Status started = cameras_[c].camera->start(
+        [rate, synchronizer](Frame&& frame) {
+          rate->tick(monotonicNowNs());
+          synchronizer->push(std::move(frame));
+        },
+        [](int camera, const std::string& message) {
+          logWarning() << "camera " << camera << ": " << message;
+        });
+    if (!started.ok()) {
+      const std::string message = "cameras[" + std::to_string(c) + "] (" +
+                                  cameras_[c].config.driver + " " + cameras_[c].config.device +
+                                  "): " + started.message();
+      stop();
+      return Status::Error(message);
+    }
+    started_cameras_.push_back(static_cast<int>(c));
+  }
+  return Status::Ok();
+}
+
+void Pipeline::stop() {
+  if (!running_.exchange(false)) return;
+  for (int c : started_cameras_) cameras_[c].camera->stop();
+  started_cameras_.clear();
+  stop_replay_ = true;
+  synchronizer_->close();
+  if (replay_thread_.joinable()) replay_thread_.join();
+  input_closed_ = true;
+  // Each stage closes its output when its input is closed and drained.
+  if (mask_thread_.joinable()) mask_thread_.join();
+  if (tracker_thread_.joinable()) tracker_thread_.join();
+  if (publisher_thread_.joinable()) publisher_thread_.join();
+  stopRecording();
+}
+
+void Pipeline::replayLoop() {
+  ReplayPumpOptions options;
+  options.real_time = !config_.as_fast_as_possible;
+  options.stop = &stop_replay_;
+  const Status pumped = pumpSession(*replay_, *synchronizer_, options);
+  if (!pumped.ok()) logError() << "replay: " << pumped.message();
+  input_closed_ = true;
+}
+
+void Pipeline::waitForReplayEnd() {
+  std::unique_lock lock(drained_mutex_);
+  drained_signal_.wait(lock, [&] { return drained_; });
+}
+
+SilhouetteMask Pipeline::thresholdMask(const cv::Mat& image) {
+  cv::Mat gray = image;
+  if (image.channels() == 3) cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  cv::Mat binary;
+  cv::threshold(gray, binary, 127, 255, cv::THRESH_BINARY);
+  return SilhouetteMask(binary);
+}
+
+void Pipeline::maskLoop() {
+  // A camera missing from a set keeps its previous silhouette: the tracker degrades gracefully
+  // instead of seeing an empty view.
+  std::vector<SilhouetteMask> latest(cameras_.size());
+  for (std::size_t c = 0; c < cameras_.size(); ++c)
+    latest[c] = SilhouetteMask(cv::Mat::zeros(rig_[c].height, rig_[c].width, CV_8UC1));
+  std::vector<bool> size_warned(cameras_.size(), false);
+  while (true) {
+    std::optional<FrameSet> set = synchronizer_->pop(kPollInterval);
+    if (!set) {
+      if (!input_closed_) continue;
+      // The input closed before it set the flag: whatever is left comes without waiting.
+      set = synchronizer_->pop(std::chrono::nanoseconds(0));
+      if (!set) break;
+    }
+    {
+      std::lock_guard lock(recording_mutex_);
+      for (std::size_t c = 0; c < set->frames.size() && c < cameras_.size(); ++c)
+        if (set->frames[c]) camera_cv_types_[c] = set->frames[c]->image.type();
+      if (recorder_) recorder_->write(*set);
+    }
+    MaskSet masks{set->sequence, set->timestamp_ns, {}};
+    std::optional<uint64_t> truth_sequence;
+    std::vector<cv::Mat> truth;
+    for (std::size_t c = 0; c < cameras_.size(); ++c) {
+      if (c >= set->frames.size() || !set->frames[c]) continue;
+      if (ground_truth_) {
+        // The frames of one set normally share the scene's frame number: rendered once.
+        if (truth_sequence != set->frames[c]->sequence) {
+          truth_sequence = set->frames[c]->sequence;
+          truth = ground_truth_(*truth_sequence);
+        }
+        if (c < truth.size()) latest[c] = SilhouetteMask(truth[c]);
+        continue;
+      }
+      const cv::Mat& image = set->frames[c]->image;
+      if (image.cols != rig_[c].width || image.rows != rig_[c].height || image.depth() != CV_8U) {
+        if (!size_warned[c]) {
+          logWarning() << "camera " << c << " delivers " << image.cols << "x" << image.rows
+                       << " images but is calibrated for " << rig_[c].width << "x"
+                       << rig_[c].height << "; its frames are ignored";
+          size_warned[c] = true;
+        }
+        continue;
+      }
+      latest[c] = thresholdMask(image);
+    }
+    masks.masks = latest;
+    masks_.push(std::move(masks));
+  }
+  masks_.close();
+}
+
+void Pipeline::trackerLoop() {
+  while (true) {
+    std::optional<MaskSet> masks = masks_.pop(kPollInterval);
+    if (!masks) {
+      if (masks_.closed()) break;
+      continue;
+    }
+    const FrameEstimate estimate = filter_->step(masks->masks);
+    forwardKinematics(model_, kinematics_, estimate.q);
+    auto pose = std::make_shared<Pose>();
+    pose->frame_sequence = masks->sequence;
+    pose->capture_monotonic_ns = masks->timestamp_ns;
+    pose->points = pointPositions(model_, kinematics_);
+    pose->orientations.reserve(model_.segments.size());
+    for (const Eigen::Isometry3d& world : kinematics_.world)
+      pose->orientations.emplace_back(world.rotation());
+    pose->dofs = estimate.q;
+    pose->score = estimate.best_log_weight;
+    pose->spread = estimate.spread;
+    evaluations_per_frame_ = static_cast<double>(estimate.evaluations);
+    tracker_rate_.tick(monotonicNowNs());
+    poses_.push(std::move(pose));
+  }
+  poses_.close();
+}
+
+void Pipeline::publisherLoop() {
+  while (true) {
+    std::optional<std::shared_ptr<Pose>> pose = poses_.pop(kPollInterval);
+    if (!pose) {
+      if (poses_.closed()) break;
+      continue;
+    }
+    Pose& p = **pose;
+    const int64_t now = monotonicNowNs();
+    p.publish_monotonic_ns = now;
+    p.capture_wall_ns = wallNowNs() - (now - p.capture_monotonic_ns);
+    // Replayed timestamps are from the recording's past: no latency to measure.
+    if (!config_.replay()) latency_.add(now - p.capture_monotonic_ns);
+    if (observer_) observer_(p);
+    publisher_.publish(std::move(*pose));
+    ++poses_published_;
+  }
+  std::lock_guard lock(drained_mutex_);
+  drained_ = true;
+  drained_signal_.notify_all();
+}
+
+RecordingStatus Pipeline::recordingStatusLocked() const {
+  if (!recorder_) return last_recording_;
+  RecordingStatus status;
+  status.active = true;
+  status.path = recording_path_;
+  status.frame_sets = recorder_->stats().sets_written;
+  status.started_wall_ns = recording_started_wall_ns_;
+  return status;
+}
+
+RecordingResult Pipeline::startRecording(const std::string& relative_path) {
+  RecordingResult result;
+  if (config_.recording_directory.empty()) {
+    return {RecordingError::kNotConfigured,
+            "recording is off: the configuration has no recording_directory", {}};
+  }
+  const std::filesystem::path requested(relative_path);
+  for (const std::filesystem::path& part : requested) {
+    if (part == "..")
+      return {RecordingError::kBadPath, "the session path must not contain '..'", {}};
+  }
+  if (requested.is_absolute())
+    return {RecordingError::kBadPath,
+            "the session path must be relative to the recording directory", {}};
+  const Expected<std::filesystem::path> inside =
+      resolveInsideRoot(config_.recording_directory, requested);
+  if (!inside.ok()) return {RecordingError::kOutsideRoot, inside.error(), {}};
+  if (std::filesystem::exists(inside.value()))
+    return {RecordingError::kBusy, "session " + relative_path + " already exists", {}};
+
+  std::vector<SessionCamera> cameras;
+  {
+    std::lock_guard lock(recording_mutex_);
+    if (recorder_)
+      return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
+    for (std::size_t c = 0; c < cameras_.size(); ++c) {
+      if (camera_cv_types_[c] < 0)
+        return {RecordingError::kBusy, "camera " + std::to_string(c) + " has sent no frame yet", {}};
+      SessionCamera camera;
+      camera.name = cameras_[c].info.id;
+      camera.width = cameras_[c].config.width;
+      camera.height = cameras_[c].config.height;
+      camera.pixel_format = camera_cv_types_[c] == CV_8UC1 ? kPixelGray : kPixelBgr;
+      camera.fps = cameras_[c].config.fps;
+      cameras.push_back(camera);
+    }
+  }
+  // Opening writes files: done outside the lock so the mask thread never waits on the disk.
+  auto recorder = std::make_unique<Recorder>(config_.recording_directory);
+  const Status opened = recorder->open(requested, rig_, cameras);
+  if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
+  std::lock_guard lock(recording_mutex_);
+  if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
+  recorder_ = std::move(recorder);
+  recording_path_ = relative_path;
+  recording_started_wall_ns_ = wallNowNs();
+  logInfo() << "recording to " << recorder_->sessionPath().string();
+  result.status = recordingStatusLocked();
+  return result;
+}
+
+RecordingResult Pipeline::stopRecording() {
+  std::unique_ptr<Recorder> recorder;
+  RecordingStatus final_status;
+  {
+    std::lock_guard lock(recording_mutex_);
+    if (!recorder_) return {RecordingError::kNotRecording, "no recording is running", last_recording_};
+    final_status = recordingStatusLocked();
+    recorder = std::move(recorder_);
+  }
+  // Flushing the queue to disk happens outside the lock, while the mask thread goes on.
+  const Status closed = recorder->close();
+  final_status.active = false;
+  final_status.frame_sets = recorder->stats().sets_written;
+  const RecorderStats stats = recorder->stats();
+  {
+    std::lock_guard lock(recording_mutex_);
+    last_recording_ = final_status;
+  }
+  logInfo() << "recording " << recorder->sessionPath().string() << " closed: " << stats.sets_written
+            << " frame sets written, " << stats.sets_dropped << " dropped (disk too slow)";
+  if (!closed.ok()) return {RecordingError::kIo, closed.message(), final_status};
+  return {RecordingError::kNone, "", final_status};
+}
+
+PipelineStatus Pipeline::status() const {
+  PipelineStatus status;
+  const int64_t now = monotonicNowNs();
+  status.running = running_;
+  const SyncStats sync = synchronizer_->stats();
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    CameraRuntimeStatus camera;
+    camera.measured_fps = camera_rates_[c]->rate(now);
+    const int64_t since = camera_rates_[c]->sinceLast(now);
+    camera.streaming = since >= 0 && since <= RateMeter::kWindowNs;
+    if (c < sync.cameras.size()) camera.sync = sync.cameras[c];
+    status.cameras.push_back(camera);
+  }
+  status.tracker_fps = tracker_rate_.rate(now);
+  status.poses_published = poses_published_;
+  status.frame_sets_skipped = sync.sets_superseded + masks_.superseded() + poses_.superseded();
+  status.evaluations_per_frame = evaluations_per_frame_;
+  status.latency = latency_.summary();
+  std::lock_guard lock(recording_mutex_);
+  status.recording = recordingStatusLocked();
+  return status;
+}
+
+}  // namespace mocap

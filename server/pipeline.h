@@ -1,0 +1,182 @@
+// The capture-to-pose pipeline of the daemon, one thread per stage with bounded hand-offs:
+//
+//   camera drivers (their own threads) -> FrameSynchronizer
+//     -> mask thread: FrameSet -> silhouette masks (and the recorder tap)
+//     -> tracker thread: masks -> PoseFilter::step -> Pose
+//     -> publisher thread: stamps the pose, feeds the latency meter, fans out to subscribers.
+//
+// Live mode drops stale work between stages (latest wins); replay mode loses nothing and its
+// poses depend only on the recorded frames and the filter's seed.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "drivers/camera_driver.h"
+#include "drivers/record/recorder.h"
+#include "drivers/record/session_reader.h"
+#include "drivers/sync/frame_synchronizer.h"
+#include "server/config.h"
+#include "server/handoff.h"
+#include "server/pose.h"
+#include "server/pose_publisher.h"
+#include "server/stats.h"
+#include "tracker/body_model.h"
+#include "tracker/camera.h"
+#include "tracker/filter.h"
+#include "tracker/kinematics.h"
+#include "tracker/silhouette_mask.h"
+#include "tracker/worker_pool.h"
+
+namespace mocap {
+
+// A camera of the rig: the configuration it was opened with, what its driver says of it, and the
+// camera itself (null when a recorded session stands in for it).
+struct OpenedCamera {
+  CameraConfig config;
+  CameraInfo info;
+  std::unique_ptr<Camera> camera;
+};
+
+// The silhouettes of frame `frame_sequence` on every camera, when the source knows them (the fake
+// scene's ground truth); empty otherwise.
+using GroundTruthSilhouettes = std::function<std::vector<cv::Mat>(uint64_t frame_sequence)>;
+
+struct PipelineInputs {
+  std::vector<OpenedCamera> cameras;
+  // Replay: the session that feeds the synchronizer instead of the cameras.
+  std::shared_ptr<const SessionReader> replay;
+  // Used instead of thresholding the images when set.
+  GroundTruthSilhouettes ground_truth;
+};
+
+struct CameraRuntimeStatus {
+  double measured_fps = 0;
+  bool streaming = false;  // a frame arrived within the last two seconds
+  CameraSyncStats sync;
+};
+
+struct RecordingStatus {
+  bool active = false;
+  std::string path;  // relative to the recording directory
+  uint64_t frame_sets = 0;
+  int64_t started_wall_ns = 0;
+};
+
+struct PipelineStatus {
+  bool running = false;
+  std::vector<CameraRuntimeStatus> cameras;
+  double tracker_fps = 0;
+  uint64_t poses_published = 0;
+  uint64_t frame_sets_skipped = 0;  // live: superseded in the synchronizer or between stages
+  double evaluations_per_frame = 0;
+  LatencySummary latency;
+  RecordingStatus recording;
+};
+
+// Why a recording request failed, so the service can pick the gRPC code.
+enum class RecordingError { kNone, kBadPath, kOutsideRoot, kNotConfigured, kBusy, kNotRecording, kIo };
+struct RecordingResult {
+  RecordingError error = RecordingError::kNone;
+  std::string message;
+  RecordingStatus status;
+};
+
+class Pipeline {
+ public:
+  // The model, rig and publisher are borrowed and must outlive the pipeline. Throws
+  // std::invalid_argument if the rig does not match the cameras or the tracker settings are
+  // unusable.
+  Pipeline(const ServerConfig& config, const BodyModel& model, const Rig& rig,
+           PipelineInputs inputs, PosePublisher& publisher);
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  // Starts the stage threads, then the cameras (or the replay). An error names the camera that
+  // failed.
+  Status start();
+  // Replay: blocks until the whole session has been tracked and published.
+  void waitForReplayEnd();
+  // Stops the cameras, drains the stages and closes the recording. Idempotent.
+  void stop();
+
+  // Called on the publisher thread with every published pose, before the subscribers get it.
+  // Set before start().
+  void setPoseObserver(std::function<void(const Pose&)> observer);
+
+  RecordingResult startRecording(const std::string& relative_path);
+  RecordingResult stopRecording();
+
+  PipelineStatus status() const;
+  const std::vector<OpenedCamera>& cameras() const { return cameras_; }
+
+ private:
+  struct MaskSet {
+    uint64_t sequence = 0;
+    int64_t timestamp_ns = 0;
+    std::vector<SilhouetteMask> masks;
+  };
+
+  void replayLoop();
+  void maskLoop();
+  void trackerLoop();
+  void publisherLoop();
+  // Foreground where the image is brighter than mid-grey: the fake scene's silhouettes, or a lit
+  // subject against a dark background, until tracker/vision's extractor is wired in.
+  static SilhouetteMask thresholdMask(const cv::Mat& image);
+  RecordingStatus recordingStatusLocked() const;
+
+  const ServerConfig config_;
+  const BodyModel& model_;
+  const Rig& rig_;
+  std::vector<OpenedCamera> cameras_;
+  std::shared_ptr<const SessionReader> replay_;
+  GroundTruthSilhouettes ground_truth_;
+  PosePublisher& publisher_;
+  std::unique_ptr<FrameSynchronizer> synchronizer_;
+  Handoff<MaskSet> masks_;
+  Handoff<std::shared_ptr<Pose>> poses_;
+  std::function<void(const Pose&)> observer_;
+
+  // Tracker thread only, after construction.
+  std::unique_ptr<WorkerPool> pool_;
+  std::unique_ptr<PoseFilter> filter_;
+  KinematicsData kinematics_;
+
+  std::vector<std::unique_ptr<RateMeter>> camera_rates_;
+  RateMeter tracker_rate_;
+  LatencyWindow latency_;
+  std::atomic<uint64_t> poses_published_{0};
+  std::atomic<double> evaluations_per_frame_{0};
+
+  // The recorder tap: the mask thread writes each frame set while a recording is open.
+  mutable std::mutex recording_mutex_;
+  std::unique_ptr<Recorder> recorder_;
+  std::string recording_path_;
+  int64_t recording_started_wall_ns_ = 0;
+  RecordingStatus last_recording_;
+  std::vector<int> camera_cv_types_;  // of the latest frames, -1 before the first
+
+  std::atomic<bool> running_{false};
+  std::atomic<bool> input_closed_{false};
+  std::vector<int> started_cameras_;
+  std::atomic<bool> stop_replay_{false};
+  std::thread replay_thread_;
+  std::thread mask_thread_;
+  std::thread tracker_thread_;
+  std::thread publisher_thread_;
+  // Set when the publisher thread has published its last pose.
+  std::mutex drained_mutex_;
+  std::condition_variable drained_signal_;
+  bool drained_ = false;
+};
+
+}  // namespace mocap

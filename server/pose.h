@@ -1,0 +1,27 @@
+// The tracker's output for one frame set, as the pipeline hands it to the publisher: immutable
+// once published and shared (never copied) between subscribers.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace mocap {
+
+struct Pose {
+  uint64_t frame_sequence = 0;
+  int64_t capture_monotonic_ns = 0;  // the frame set's timestamp
+  int64_t capture_wall_ns = 0;       // the same instant in Unix time
+  int64_t publish_monotonic_ns = 0;  // when the publisher took it
+  std::vector<Eigen::Vector3d> points;           // BodyModel::points order, world, metres
+  std::vector<Eigen::Quaterniond> orientations;  // per segment, world
+  Eigen::VectorXd dofs;
+  double score = 0;   // best particle's log-likelihood
+  double spread = 0;  // particle spread around the estimate
+};
+
+using SharedPose = std::shared_ptr<const Pose>;
+
+}  // namespace mocap

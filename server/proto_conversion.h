@@ -1,0 +1,22 @@
+// Every conversion from the daemon's types to the wire messages, in one place.
+#pragma once
+
+#include <vector>
+
+#include "mocap/v1/mocap.pb.h"
+#include "server/pipeline.h"
+#include "server/pose.h"
+#include "tracker/body_model.h"
+
+namespace mocap {
+
+// `joints`: indices into model.points to include, in that order; empty means all.
+void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int>& joints,
+                 uint64_t missed_before, v1::Pose& out);
+void skeletonToProto(const BodyModel& model, v1::Skeleton& out);
+void cameraInfoToProto(const OpenedCamera& camera, v1::CameraInfo& out);
+void recordingToProto(const RecordingStatus& recording, v1::RecordingState& out);
+void cameraStatusToProto(const OpenedCamera& camera, const CameraRuntimeStatus& status,
+                         bool pipeline_running, v1::CameraStatus& out);
+
+}  // namespace mocap

@@ -1,0 +1,58 @@
+// Silhouette extraction per 780x580 frame on one thread, BGR and gray, on generated frames of a
+// moving person with a cast shadow (the full per-frame path: gain, classification, shadows, cleanup,
+// adaptation and the bit-packed SilhouetteMask).
+#include <benchmark/benchmark.h>
+
+#include <opencv2/core.hpp>
+
+#include "tracker/vision/silhouette_extractor.h"
+#include "tracker/vision/test_scene.h"
+
+namespace mocap {
+namespace {
+
+struct Recorded {
+  BackgroundModel background;
+  std::vector<cv::Mat> frames;
+};
+
+Recorded record(bool color) {
+  TestSceneOptions options;
+  options.color = color;
+  SilhouetteTestScene scene(options);
+  TestSceneFrame frame;
+  BackgroundLearner learner;
+  for (int i = 0; i < 30; ++i) {
+    scene.render(0, false, frame);
+    learner.add(frame.image);
+  }
+  Recorded recorded{learner.model(), {}};
+  for (int t = 0; t < 32; ++t) {
+    scene.render(t, true, frame);
+    recorded.frames.push_back(frame.image.clone());
+  }
+  return recorded;
+}
+
+void extractSilhouette(benchmark::State& state, bool color) {
+  cv::setNumThreads(1);
+  static const Recorded bgr = record(true), gray = record(false);
+  const Recorded& recorded = color ? bgr : gray;
+  SilhouetteExtractor extractor(recorded.background);
+  std::size_t i = 0;
+  for (auto _ : state) {
+    extractor.extract(recorded.frames[i++ % recorded.frames.size()]);
+    benchmark::DoNotOptimize(extractor.silhouette());
+  }
+  state.counters["ms_per_frame"] = benchmark::Counter(
+      static_cast<double>(state.iterations()) * 1e-3,
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+BENCHMARK_CAPTURE(extractSilhouette, bgr_780x580, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extractSilhouette, gray_780x580, false)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace mocap
+
+BENCHMARK_MAIN();

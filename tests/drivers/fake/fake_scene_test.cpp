@@ -1,0 +1,313 @@
+// The fake driver's scene cameras: pacing, ground truth, fault knobs, enumeration, registration.
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <set>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "drivers/builtin_drivers.h"
+#include "drivers/fake/fake_driver.h"
+
+namespace mocap {
+namespace {
+
+using ::testing::HasSubstr;
+constexpr auto kGenerous = std::chrono::seconds(60);
+
+// Collects frames and events from the driver threads.
+class Collector {
+ public:
+  FrameSink sink() {
+    return [this](Frame&& f) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      frames_.push_back(std::move(f));
+      changed_.notify_all();
+    };
+  }
+  DriverEventSink events() {
+    return [this](int camera, const std::string& message) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      events_.push_back(std::to_string(camera) + " " + message);
+      changed_.notify_all();
+    };
+  }
+  bool waitFrames(std::size_t count) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return changed_.wait_for(lock, kGenerous, [&] { return frames_.size() >= count; });
+  }
+  bool waitEvents(std::size_t count) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return changed_.wait_for(lock, kGenerous, [&] { return events_.size() >= count; });
+  }
+  std::vector<Frame> frames() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return frames_;
+  }
+  std::vector<std::string> eventList() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return events_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<Frame> frames_;
+  std::vector<std::string> events_;
+};
+
+FakeDriverOptions smallScene(FakePacing pacing, uint64_t frame_limit) {
+  FakeDriverOptions options;
+  options.scene.width = 320;
+  options.scene.height = 240;
+  options.scene.fps = 50;
+  options.scene.pacing = pacing;
+  options.scene.frame_limit = frame_limit;
+  options.scene.generated_frames = 60;
+  return options;
+}
+
+CameraConfig sceneCamera(int index, const FakeDriverOptions& options) {
+  CameraConfig config;
+  config.index = index;
+  config.driver = "fake";
+  config.device = "scene:" + std::to_string(index);
+  config.width = options.scene.width;
+  config.height = options.scene.height;
+  config.fps = options.scene.fps;
+  return config;
+}
+
+std::unique_ptr<Camera> openCamera(FakeDriver& driver, const CameraConfig& config) {
+  Expected<std::unique_ptr<Camera>> camera = driver.open(config);
+  EXPECT_TRUE(camera.ok()) << camera.error();
+  return camera.ok() ? std::move(camera.value()) : nullptr;
+}
+
+TEST(FakeSceneCamera, RealTimeFramesHaveIncreasingSequencesAndTimestamps) {
+  const FakeDriverOptions options = smallScene(FakePacing::kRealTime, 0);
+  FakeDriver driver(options);
+  Collector left, right;
+  std::unique_ptr<Camera> cam0 = openCamera(driver, sceneCamera(0, options));
+  std::unique_ptr<Camera> cam1 = openCamera(driver, sceneCamera(1, options));
+  ASSERT_TRUE(cam0 && cam1);
+  ASSERT_TRUE(cam0->start(left.sink(), left.events()).ok());
+  ASSERT_TRUE(cam1->start(right.sink(), right.events()).ok());
+  ASSERT_TRUE(left.waitFrames(10));
+  ASSERT_TRUE(right.waitFrames(10));
+  cam0->stop();
+  cam1->stop();
+  for (Collector* collector : {&left, &right}) {
+    const std::vector<Frame> frames = collector->frames();
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      EXPECT_EQ(frames[i].image.cols, 320);
+      EXPECT_EQ(frames[i].image.rows, 240);
+      EXPECT_EQ(frames[i].image.type(), CV_8UC3);
+      if (i == 0) continue;
+      EXPECT_EQ(frames[i].sequence, frames[i - 1].sequence + 1 + frames[i].dropped_before);
+      EXPECT_GT(frames[i].timestamp_ns, frames[i - 1].timestamp_ns);
+    }
+  }
+  // Frame N of both cameras is the same simulated instant.
+  const Frame& a = left.frames().back();
+  for (const Frame& b : right.frames()) {
+    if (b.sequence == a.sequence) {
+      EXPECT_EQ(b.timestamp_ns, a.timestamp_ns);
+    }
+  }
+  EXPECT_EQ(right.frames().front().camera, 1);
+}
+
+TEST(FakeSceneCamera, GroundTruthMatchesTheRenderedImage) {
+  const FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 8);
+  FakeDriver driver(options);
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(1, options));
+  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
+  ASSERT_TRUE(collector.waitFrames(8));
+  camera->stop();
+  std::shared_ptr<FakeScene> scene = driver.scene().value();
+  for (const Frame& frame : collector.frames()) {
+    const GroundTruth truth = scene->groundTruth(frame.sequence);
+    EXPECT_EQ(truth.q, scene->motion()[scene->motionFrame(frame.sequence)]);
+    ASSERT_EQ(truth.silhouettes.size(), 2u);
+    const cv::Mat& mask = truth.silhouettes[1];
+    ASSERT_GT(cv::countNonZero(mask), 500) << "the hand should fill part of the image";
+    cv::Mat difference;
+    cv::absdiff(frame.image, scene->background(1), difference);
+    cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+    cv::Mat outside;
+    cv::bitwise_not(mask, outside);
+    EXPECT_GT(cv::mean(difference, mask)[0], 40.0) << "the body must stand out of the background";
+    EXPECT_LT(cv::mean(difference, outside)[0], 6.0) << "elsewhere only noise";
+  }
+}
+
+TEST(FakeSceneCamera, AsFastAsPossibleDeliversEveryFrameOnePeriodApart) {
+  const FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 40);
+  FakeDriver driver(options);
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
+  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
+  ASSERT_TRUE(collector.waitFrames(40));
+  camera->stop();
+  const std::vector<Frame> frames = collector.frames();
+  ASSERT_EQ(frames.size(), 40u);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_EQ(frames[i].sequence, i);
+    EXPECT_EQ(frames[i].dropped_before, 0u);
+    if (i > 0) {
+      EXPECT_EQ(frames[i].timestamp_ns - frames[i - 1].timestamp_ns, 20'000'000);
+    }
+  }
+}
+
+TEST(FakeSceneCamera, GrayOutputWhenConfigured) {
+  FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 2);
+  FakeDriver driver(options);
+  CameraConfig config = sceneCamera(0, options);
+  config.pixel_format = "GREY";
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, config);
+  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
+  ASSERT_TRUE(collector.waitFrames(2));
+  camera->stop();
+  EXPECT_EQ(collector.frames().front().image.type(), CV_8UC1);
+}
+
+TEST(FakeSceneCamera, DropsAreCountedInDroppedBefore) {
+  FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 200);
+  options.scene.faults.drop_rate = 0.3;
+  options.scene.faults.timestamp_jitter = std::chrono::milliseconds(2);
+  FakeDriver driver(options);
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
+  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
+  ASSERT_TRUE(collector.waitFrames(100));
+  camera.reset();  // stops
+  const std::vector<Frame> frames = collector.frames();
+  uint64_t lost = frames.front().sequence;  // drops before the first frame
+  bool jittered = false;
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    EXPECT_EQ(frames[i].sequence - frames[i - 1].sequence - 1, frames[i].dropped_before);
+    lost += frames[i].dropped_before;
+    jittered |= (frames[i].timestamp_ns - frames[i - 1].timestamp_ns) % 20'000'000 != 0;
+    EXPECT_GT(frames[i].timestamp_ns, frames[i - 1].timestamp_ns);
+  }
+  EXPECT_GT(lost, 30u);
+  EXPECT_LT(lost, 100u);
+  EXPECT_TRUE(jittered);
+}
+
+TEST(FakeSceneCamera, StallStopsFramesSilentlyThenResumes) {
+  FakeDriverOptions options = smallScene(FakePacing::kRealTime, 0);
+  options.scene.faults.stall = {0, 5, std::chrono::milliseconds(200)};  // 10 frames at 50 Hz
+  FakeDriver driver(options);
+  driver.scene().value()->epochNs();  // the scene starts now: frame 5 lies ahead
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
+  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
+  ASSERT_TRUE(collector.waitFrames(1));
+  const uint64_t first = collector.frames().front().sequence;
+  ASSERT_LT(first, 5u) << "the machine was too slow to start before the stall";
+  ASSERT_TRUE(collector.waitFrames(5 - first + 3));
+  camera->stop();
+  const std::vector<Frame> frames = collector.frames();
+  bool resumed = false;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_FALSE(frames[i].sequence >= 5 && frames[i].sequence < 15) << frames[i].sequence;
+    if (frames[i].sequence >= 15 && !resumed) {
+      resumed = true;
+      EXPECT_GE(frames[i].dropped_before, 10u);
+      EXPECT_EQ(frames[i].dropped_before, frames[i].sequence - frames[i - 1].sequence - 1);
+    }
+  }
+  EXPECT_TRUE(resumed);
+  EXPECT_TRUE(collector.eventList().empty());
+}
+
+TEST(FakeSceneCamera, DisconnectIsReportedAndFramesResume) {
+  FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 30);
+  options.scene.faults.disconnect = {1, 10, std::chrono::milliseconds(100)};  // frames 10..14
+  FakeDriver driver(options);
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(1, options));
+  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
+  ASSERT_TRUE(collector.waitFrames(25));
+  ASSERT_TRUE(collector.waitEvents(2));
+  camera->stop();
+  const std::vector<std::string> events = collector.eventList();
+  EXPECT_THAT(events[0], HasSubstr("1 scene:1: camera disconnected"));
+  EXPECT_THAT(events[1], HasSubstr("1 scene:1: camera reconnected"));
+  const std::vector<Frame> frames = collector.frames();
+  ASSERT_EQ(frames.size(), 25u);
+  EXPECT_EQ(frames[10].sequence, 15u);
+  EXPECT_EQ(frames[10].dropped_before, 5u);
+  EXPECT_EQ(frames.back().sequence, 29u);
+}
+
+TEST(FakeSceneCamera, StopReturnsPromptlyWhileWaitingForASlowFrame) {
+  FakeDriverOptions options = smallScene(FakePacing::kRealTime, 0);
+  options.scene.fps = 0.1;  // one frame every ten seconds
+  FakeDriver driver(options);
+  CameraConfig config = sceneCamera(0, options);
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, config);
+  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
+  ASSERT_TRUE(collector.waitFrames(1));  // frame 0 comes at once
+  camera->stop();                        // while waiting ten seconds for frame 1: wakes at once
+  EXPECT_EQ(collector.frames().size(), 1u);
+}
+
+TEST(FakeDriver, EnumeratesOnlyTheSceneCameras) {
+  FakeDriver driver(smallScene(FakePacing::kRealTime, 0));
+  const std::vector<CameraInfo> cameras = driver.enumerate();
+  ASSERT_EQ(cameras.size(), 2u);
+  EXPECT_EQ(cameras[0].id, "scene:0");
+  EXPECT_EQ(cameras[1].id, "scene:1");
+  EXPECT_EQ(cameras[1].modes.front().width, 320);
+  EXPECT_EQ(cameras[1].modes.front().fps, 50);
+}
+
+TEST(FakeDriver, BadConfigsAreNamed) {
+  const FakeDriverOptions options = smallScene(FakePacing::kRealTime, 0);
+  FakeDriver driver(options);
+  CameraConfig config = sceneCamera(0, options);
+  config.device = "scene:7";
+  EXPECT_THAT(driver.open(config).error(), HasSubstr("cameras 0..1"));
+  config.device = "webcam";
+  EXPECT_THAT(driver.open(config).error(), HasSubstr("not scene:<camera index>"));
+  config = sceneCamera(0, options);
+  config.width = 640;
+  EXPECT_THAT(driver.open(config).error(), HasSubstr("configured 640x240"));
+  config = sceneCamera(0, options);
+  config.fps = 30;
+  EXPECT_THAT(driver.open(config).error(), HasSubstr("fps"));
+  config = sceneCamera(0, options);
+  config.device = "replay:/nonexistent/session:0";
+  EXPECT_THAT(driver.open(config).error(), HasSubstr("/nonexistent/session/manifest.yaml"));
+}
+
+TEST(FakeDriver, DefaultRigsFitTheModel) {
+  const Rig lab = labRig(2, 780, 580);
+  ASSERT_EQ(lab.size(), 2u);
+  const Eigen::Vector3d a = lab[0].center(), b = lab[1].center();
+  const Eigen::Vector3d target(0, 0, 1);
+  EXPECT_NEAR((a - target).head<2>().norm(), 4.0, 1e-9);
+  EXPECT_NEAR(std::acos((a - target).head<2>().normalized().dot((b - target).head<2>().normalized())) * 180 / M_PI,
+              60.0, 1e-6);
+}
+
+TEST(FakeDriver, IsRegisteredAsFake) {
+  DriverRegistry registry;
+  registerBuiltinDrivers(registry);
+  const std::vector<std::string> names = registry.names();
+  EXPECT_NE(std::find(names.begin(), names.end(), "fake"), names.end());
+  EXPECT_EQ(registry.create("fake")->name(), "fake");
+}
+
+}  // namespace
+}  // namespace mocap

@@ -1,0 +1,59 @@
+// Configuration parsing: the embedded default, and bad values refused with file, line, field and
+// reason.
+#include "server/config.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace mocap {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string errorOf(const std::string& yaml) {
+  try {
+    parseConfig(yaml, "test.yaml", ".");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ConfigTest, EmbeddedDefaultIsTheFakeTwoCameraScene) {
+  const ServerConfig config = parseConfig(kDefaultConfigYaml, "default", ".");
+  ASSERT_EQ(config.cameras.size(), 2u);
+  for (const CameraConfig& camera : config.cameras) {
+    EXPECT_EQ(camera.driver, "fake");
+    EXPECT_EQ(camera.width, 780);
+    EXPECT_EQ(camera.height, 580);
+    EXPECT_EQ(camera.fps, 25.0);
+  }
+  EXPECT_EQ(config.listen, "127.0.0.1:50051");
+  EXPECT_TRUE(config.bearer_token.empty());
+}
+
+TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  EXPECT_THAT(errorOf(cameras + "tracker:\n  evaluations: -5\n"),
+              HasSubstr("test.yaml:4: tracker.evaluations: must be between 1 and"));
+  EXPECT_THAT(errorOf(cameras + "tracker: {method: magic}\n"),
+              HasSubstr("tracker.method: expected factored, condensation or annealed"));
+  EXPECT_THAT(errorOf(cameras + "listen: nowhere\n"), HasSubstr("test.yaml:3: listen:"));
+  EXPECT_THAT(errorOf(cameras + "trackr: {}\n"), HasSubstr("trackr: unknown key"));
+  EXPECT_THAT(errorOf("cameras:\n  - {driver: nosuch}\n"),
+              HasSubstr("cameras[0].driver: no driver 'nosuch'"));
+  EXPECT_THAT(errorOf("cameras: []\n"), HasSubstr("cameras: expected a non-empty list"));
+  EXPECT_THAT(errorOf(cameras + "  - {driver: fake, width: 780, height: 580, fps: 30}\n"),
+              HasSubstr("cameras[1].fps: every camera of the rig must run at the same rate"));
+  EXPECT_THAT(errorOf(cameras + "calibration: /no/such/rig.yaml\n"),
+              HasSubstr("calibration: no such file"));
+  EXPECT_THAT(errorOf(cameras + "auth: {token: short}\n"), HasSubstr("at least 16 characters"));
+  EXPECT_THAT(errorOf(cameras + "recording_directory: /no/such/dir\n"),
+              HasSubstr("recording_directory: not an existing directory"));
+  EXPECT_THAT(errorOf(cameras + "tls: {cert: /no/cert.pem}\n"),
+              HasSubstr("tls: needs both 'cert' and 'key'"));
+  EXPECT_THAT(errorOf("cameras: [\n"), HasSubstr("test.yaml:"));
+}
+
+}  // namespace
+}  // namespace mocap

@@ -1,0 +1,277 @@
+// End to end on loopback, with the daemon in-process on the fake scene (2 cameras, 780x580,
+// 25 Hz): C++ and Python subscribers keep up with the frame rate while another subscriber never
+// reads; health; the bearer token; recording paths; replay determinism.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "drivers/builtin_drivers.h"
+#include "server/mocap_server.h"
+#include "server/server_test_support.h"
+
+namespace mocap {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Window of the rate test: 10 s at 25 Hz is 250 frame sets.
+constexpr int kWindowSeconds = 10;
+constexpr int kWindowFrames = kWindowSeconds * 25;
+
+std::unique_ptr<MocapServer> startServer(const ServerConfig& config) {
+  Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+  EXPECT_TRUE(server.ok()) << server.error();
+  if (!server.ok()) return nullptr;
+  const Status started = server.value()->start();
+  EXPECT_TRUE(started.ok()) << started.message();
+  return std::move(server.value());
+}
+
+std::string python(const std::string& args) {
+  const std::string command = "/usr/bin/python3 " MOCAP_SOURCE_DIR
+                              "/clients/python/mocap_client.py --stubs " MOCAP_PYTHON_STUBS " " +
+                              args + " 2>&1";
+  std::string output;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return "popen failed";
+  char buffer[4096];
+  while (fgets(buffer, sizeof buffer, pipe)) output += buffer;
+  pclose(pipe);
+  return output;
+}
+
+fs::path freshDirectory(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("mocap_e2e_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+class EndToEndTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { registerBuiltinDrivers(DriverRegistry::instance()); }
+};
+
+TEST_F(EndToEndTest, SubscribersKeepUpWhileOneNeverReads) {
+  std::unique_ptr<MocapServer> server = startServer(test::sceneConfig());
+  ASSERT_TRUE(server);
+  const std::string address = "127.0.0.1:" + std::to_string(server->port());
+  EXPECT_EQ(python("health --server " + address), "SERVING\n");
+
+  auto stub = test::connect(server->port());
+  // A subscriber that opens the stream and never reads a pose.
+  grpc::ClientContext stalled_context;
+  std::unique_ptr<grpc::ClientReader<v1::Pose>> stalled =
+      stub->StreamPoses(&stalled_context, v1::StreamPosesRequest());
+  test::PoseCounter cpp_client(*stub);
+  // Let the tracker settle in before the window opens.
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+
+  std::string python_output;
+  std::thread python_client([&] {
+    python_output = python("stream --server " + address + " --count " + std::to_string(kWindowFrames));
+  });
+  cpp_client.startCounting();
+  std::this_thread::sleep_for(std::chrono::seconds(kWindowSeconds));
+  cpp_client.stopCounting();
+  python_client.join();
+
+  // C++: at least 95 % of the frame sets of the window, and of the nominal 25 Hz.
+  EXPECT_GE(cpp_client.received(), 0.95 * static_cast<double>(cpp_client.spanned()));
+  EXPECT_GE(static_cast<double>(cpp_client.received()), 0.95 * kWindowFrames);
+
+  std::vector<uint64_t> frames;
+  std::istringstream lines(python_output);
+  for (std::string line; std::getline(lines, line);) {
+    const nlohmann::json pose = nlohmann::json::parse(line, nullptr, false);
+    ASSERT_FALSE(pose.is_discarded()) << "not JSON: " << line;
+    frames.push_back(pose["frame"].get<uint64_t>());
+  }
+  ASSERT_EQ(frames.size(), static_cast<std::size_t>(kWindowFrames)) << python_output;
+  EXPECT_GE(static_cast<double>(frames.size()),
+            0.95 * static_cast<double>(frames.back() - frames.front() + 1));
+
+  v1::Status status;
+  grpc::ClientContext status_context;
+  ASSERT_TRUE(stub->GetStatus(&status_context, {}, &status).ok());
+  EXPECT_EQ(status.subscribers(), 2u);  // the stalled one and the C++ one
+  EXPECT_EQ(status.cameras_size(), 2);
+  EXPECT_EQ(status.cameras(0).state(), v1::CAMERA_STATE_STREAMING);
+  EXPECT_GT(status.cameras(0).measured_fps(), 20.0);
+  EXPECT_GT(status.latency().samples(), 0u);
+
+  stalled_context.TryCancel();
+  server->shutdown();
+  EXPECT_TRUE(cpp_client.finish().ok());
+}
+
+TEST_F(EndToEndTest, SkeletonDescribesEveryDofAndPoint) {
+  std::unique_ptr<MocapServer> server = startServer(test::sceneConfig());
+  ASSERT_TRUE(server);
+  auto stub = test::connect(server->port());
+  v1::Skeleton skeleton;
+  grpc::ClientContext context;
+  ASSERT_TRUE(stub->GetSkeleton(&context, {}, &skeleton).ok());
+  EXPECT_EQ(skeleton.segments_size(), static_cast<int>(server->model().segments.size()));
+  EXPECT_EQ(skeleton.dofs_size(), static_cast<int>(server->model().dofs.size()));
+  EXPECT_EQ(skeleton.points_size(), static_cast<int>(server->model().points.size()));
+  EXPECT_EQ(skeleton.segments(0).parent(), -1);
+
+  grpc::ClientContext stream_context;
+  v1::StreamPosesRequest request;
+  request.add_joints(skeleton.points(0).name());
+  auto reader = stub->StreamPoses(&stream_context, request);
+  v1::Pose pose;
+  ASSERT_TRUE(reader->Read(&pose));
+  ASSERT_EQ(pose.joints_size(), 1);
+  EXPECT_EQ(pose.joints(0).name(), skeleton.points(0).name());
+  EXPECT_EQ(pose.dofs_size(), skeleton.dofs_size());
+  EXPECT_EQ(pose.segment_orientations_size(), skeleton.segments_size());
+  EXPECT_GE(pose.publish_monotonic_ns(), pose.capture_monotonic_ns());
+  stream_context.TryCancel();
+
+  grpc::ClientContext bad_context;
+  v1::StreamPosesRequest bad;
+  bad.add_joints("no_such_joint");
+  auto refused = stub->StreamPoses(&bad_context, bad);
+  EXPECT_FALSE(refused->Read(&pose));
+  EXPECT_EQ(refused->Finish().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+}
+
+TEST_F(EndToEndTest, TokenIsRequiredOnEveryCall) {
+  ServerConfig config = test::sceneConfig();
+  config.bearer_token = "0123456789abcdef-secret";
+  std::unique_ptr<MocapServer> server = startServer(config);
+  ASSERT_TRUE(server);
+  auto stub = test::connect(server->port());
+  v1::Status status;
+  {
+    grpc::ClientContext context;
+    EXPECT_EQ(stub->GetStatus(&context, {}, &status).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+  {
+    grpc::ClientContext context;
+    context.AddMetadata("authorization", "Bearer 0123456789abcdef-wrong!");
+    EXPECT_EQ(stub->GetStatus(&context, {}, &status).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+  {
+    grpc::ClientContext context;
+    context.AddMetadata("authorization", "Bearer " + config.bearer_token);
+    EXPECT_TRUE(stub->GetStatus(&context, {}, &status).ok());
+  }
+  {
+    grpc::ClientContext context;
+    auto reader = stub->StreamPoses(&context, {});
+    v1::Pose pose;
+    EXPECT_FALSE(reader->Read(&pose));
+    EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+  const std::string address = "127.0.0.1:" + std::to_string(server->port());
+  EXPECT_THAT(python("status --server " + address), ::testing::HasSubstr("UNAUTHENTICATED"));
+  EXPECT_THAT(python("status --server " + address + " --token " + config.bearer_token),
+              ::testing::HasSubstr("\"mode\": \"live\""));
+}
+
+grpc::StatusCode startRecording(v1::MocapService::Stub& stub, const std::string& path) {
+  grpc::ClientContext context;
+  v1::StartRecordingRequest request;
+  request.set_path(path);
+  v1::RecordingState state;
+  return stub.StartRecording(&context, request, &state).error_code();
+}
+
+// Records at least `sets` frame sets into `root`/`name`.
+void record(v1::MocapService::Stub& stub, const std::string& name, uint64_t sets) {
+  ASSERT_EQ(startRecording(stub, name), grpc::StatusCode::OK);
+  for (;;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    grpc::ClientContext context;
+    v1::Status status;
+    ASSERT_TRUE(stub.GetStatus(&context, {}, &status).ok());
+    ASSERT_TRUE(status.recording().active());
+    if (status.recording().frame_sets() >= sets) break;
+  }
+  grpc::ClientContext context;
+  v1::RecordingState state;
+  ASSERT_TRUE(stub.StopRecording(&context, {}, &state).ok());
+  EXPECT_FALSE(state.active());
+  EXPECT_GE(state.frame_sets(), sets);
+}
+
+TEST_F(EndToEndTest, RecordingStaysInsideItsDirectory) {
+  const fs::path root = freshDirectory("paths");
+  const fs::path outside = freshDirectory("outside");
+  fs::create_directory_symlink(outside, root / "link_out");
+  ServerConfig config = test::sceneConfig();
+  config.recording_directory = fs::canonical(root).string();
+  std::unique_ptr<MocapServer> server = startServer(config);
+  ASSERT_TRUE(server);
+  auto stub = test::connect(server->port());
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // first frames in
+
+  EXPECT_EQ(startRecording(*stub, "../escape"), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(startRecording(*stub, "a/../../escape"), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(startRecording(*stub, "/tmp/escape"), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(startRecording(*stub, "link_out/take"), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_TRUE(fs::is_empty(outside));
+  record(*stub, "day1/take1", 10);
+  EXPECT_TRUE(fs::exists(root / "day1" / "take1" / "sets.csv"));
+  grpc::ClientContext context;
+  v1::RecordingState state;
+  EXPECT_EQ(stub->StopRecording(&context, {}, &state).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+  server->shutdown();
+  fs::remove_all(root);
+  fs::remove_all(outside);
+}
+
+// Every pose of a replay: frame sequence and DOF vector.
+std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& session) {
+  ServerConfig config = test::sceneConfig();
+  config.replay_directory = session.string();
+  config.as_fast_as_possible = true;
+  Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+  EXPECT_TRUE(server.ok()) << server.error();
+  std::vector<std::pair<uint64_t, std::vector<double>>> poses;
+  if (!server.ok()) return poses;
+  server.value()->pipeline().setPoseObserver([&](const Pose& pose) {
+    poses.emplace_back(pose.frame_sequence,
+                       std::vector<double>(pose.dofs.data(), pose.dofs.data() + pose.dofs.size()));
+  });
+  EXPECT_TRUE(server.value()->start().ok());
+  server.value()->pipeline().waitForReplayEnd();
+  server.value()->shutdown();
+  return poses;
+}
+
+TEST_F(EndToEndTest, ReplayGivesIdenticalPosesEveryRun) {
+  const fs::path root = freshDirectory("replay");
+  {
+    ServerConfig config = test::sceneConfig();
+    config.recording_directory = fs::canonical(root).string();
+    std::unique_ptr<MocapServer> server = startServer(config);
+    ASSERT_TRUE(server);
+    auto stub = test::connect(server->port());
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    record(*stub, "session", 100);
+  }
+  const auto first = replay(root / "session");
+  const auto second = replay(root / "session");
+  EXPECT_GE(first.size(), 100u);
+  ASSERT_EQ(first.size(), second.size());
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    ASSERT_EQ(first[i].first, second[i].first) << "pose " << i;
+    ASSERT_EQ(first[i].second, second[i].second) << "pose " << i;
+  }
+  fs::remove_all(root);
+}
+
+}  // namespace
+}  // namespace mocap

@@ -1,0 +1,75 @@
+// Background learning recovers per-pixel mean and noise; the saved model reads back identical, and
+// bad files are refused with the field named.
+#include "tracker/vision/background_model.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/core.hpp>
+
+namespace mocap {
+namespace {
+
+std::vector<cv::Mat> noisyFrames(int type, int count, double sigma) {
+  cv::Mat base(30, 40, type);
+  cv::randu(base, 40, 200);
+  cv::RNG rng(5);
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < count; ++i) {
+    cv::Mat noise(base.size(), CV_32FC(base.channels()));
+    rng.fill(noise, cv::RNG::NORMAL, 0, sigma);
+    cv::Mat frame;
+    base.convertTo(frame, CV_32F);
+    frame += noise;
+    frame.convertTo(frame, CV_8U);
+    frames.push_back(frame);
+  }
+  return frames;
+}
+
+TEST(BackgroundModel, LearnsMeanAndNoise) {
+  for (int type : {CV_8UC1, CV_8UC3}) {
+    const auto frames = noisyFrames(type, 200, 3.0);
+    const BackgroundModel model = learnBackground(frames);
+    ASSERT_EQ(model.channels(), CV_MAT_CN(type));
+    EXPECT_NEAR(cv::mean(model.stddev.reshape(1))[0], 3.0, 0.2);
+    cv::Mat first;
+    frames[0].convertTo(first, CV_32F);
+    EXPECT_LT(cv::norm(model.mean, first, cv::NORM_INF), 15.0);  // within 5 sigma of one frame
+  }
+}
+
+TEST(BackgroundModel, RefusesMismatchedFrames) {
+  BackgroundLearner learner;
+  EXPECT_TRUE(learner.add(cv::Mat(10, 10, CV_8UC3, cv::Scalar::all(7))));
+  EXPECT_FALSE(learner.add(cv::Mat(10, 11, CV_8UC3)));
+  EXPECT_FALSE(learner.add(cv::Mat(10, 10, CV_8UC1)));
+  EXPECT_EQ(learner.frames(), 1);
+}
+
+TEST(BackgroundModel, SaveLoadRoundTrip) {
+  const BackgroundModel model = learnBackground(noisyFrames(CV_8UC3, 10, 2.0));
+  const std::string path = (std::filesystem::temp_directory_path() / "mocap_bg_test.yml.gz").string();
+  saveBackground(path, model);
+  const BackgroundModel loaded = loadBackground(path);
+  EXPECT_EQ(cv::norm(model.mean, loaded.mean, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(model.stddev, loaded.stddev, cv::NORM_INF), 0.0);
+  std::filesystem::remove(path);
+}
+
+TEST(BackgroundModel, LoadNamesBadField) {
+  const std::string path = (std::filesystem::temp_directory_path() / "mocap_bg_bad.yml").string();
+  std::ofstream(path) << "%YAML:1.0\n---\nimage_width: 4\nimage_height: 3\nchannels: 1\n";
+  try {
+    loadBackground(path);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("mean: missing"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace mocap
