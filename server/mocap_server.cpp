@@ -119,6 +119,9 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       inputs.ground_truth = [shared](uint64_t sequence) {
         return shared->groundTruth(sequence).silhouettes;
       };
+      inputs.reference_pose = [shared](uint64_t sequence) { return shared->groundTruth(sequence).q; };
+      // The subject's starting pose, as a real session would give it by a start-up pose.
+      inputs.initial_pose = shared->groundTruth(0).q;
     } else {
       if (!server->model_)
         return Status::Error(config.source + ": body_model: required with real cameras");

@@ -33,12 +33,14 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
       cameras_(std::move(inputs.cameras)),
       replay_(std::move(inputs.replay)),
       ground_truth_(std::move(inputs.ground_truth)),
+      reference_pose_(std::move(inputs.reference_pose)),
       publisher_(publisher),
       masks_(config.replay() ? Handoff<MaskSet>::Mode::kLossless
                              : Handoff<MaskSet>::Mode::kLatestWins),
       poses_(config.replay() ? Handoff<std::shared_ptr<Pose>>::Mode::kLossless
                              : Handoff<std::shared_ptr<Pose>>::Mode::kLatestWins),
-      kinematics_(model) {
+      kinematics_(model),
+      reference_kinematics_(model) {
   if (cameras_.empty()) throw std::invalid_argument("no cameras");
   if (rig_.size() != cameras_.size()) {
     throw std::invalid_argument("the calibration has " + std::to_string(rig_.size()) +
@@ -72,7 +74,9 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
 
   pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
   filter_ = makeFilter(config.tracker.method, model_, rig_, filterOptions(config.tracker), *pool_);
-  filter_->reset(model_.neutralPose());
+  filter_->reset(inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
+                     ? inputs.initial_pose
+                     : model_.neutralPose());
 }
 
 Pipeline::~Pipeline() { stop(); }
@@ -222,6 +226,13 @@ void Pipeline::trackerLoop() {
     pose->dofs = estimate.q;
     pose->score = estimate.best_log_weight;
     pose->spread = estimate.spread;
+    if (reference_pose_) {
+      forwardKinematics(model_, reference_kinematics_, reference_pose_(masks->sequence));
+      const std::vector<Eigen::Vector3d> truth = pointPositions(model_, reference_kinematics_);
+      double sum = 0;
+      for (std::size_t p = 0; p < truth.size(); ++p) sum += (truth[p] - pose->points[p]).norm();
+      pose->reference_error_mm = truth.empty() ? 0.0 : 1000 * sum / truth.size();
+    }
     evaluations_per_frame_ = static_cast<double>(estimate.evaluations);
     tracker_rate_.tick(monotonicNowNs());
     poses_.push(std::move(pose));

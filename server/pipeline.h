@@ -55,6 +55,11 @@ struct PipelineInputs {
   std::shared_ptr<const SessionReader> replay;
   // Used instead of thresholding the images when set.
   GroundTruthSilhouettes ground_truth;
+  // The true pose of a frame set, when the source knows it (the fake scene): published poses then
+  // carry their error against it.
+  std::function<Eigen::VectorXd(uint64_t sequence)> reference_pose;
+  // Where the subject starts; empty: the model's neutral pose.
+  Eigen::VectorXd initial_pose;
 };
 
 struct CameraRuntimeStatus {
@@ -140,6 +145,7 @@ class Pipeline {
   std::vector<OpenedCamera> cameras_;
   std::shared_ptr<const SessionReader> replay_;
   GroundTruthSilhouettes ground_truth_;
+  std::function<Eigen::VectorXd(uint64_t)> reference_pose_;
   PosePublisher& publisher_;
   std::unique_ptr<FrameSynchronizer> synchronizer_;
   Handoff<MaskSet> masks_;
@@ -150,6 +156,7 @@ class Pipeline {
   std::unique_ptr<WorkerPool> pool_;
   std::unique_ptr<PoseFilter> filter_;
   KinematicsData kinematics_;
+  KinematicsData reference_kinematics_;
 
   std::vector<std::unique_ptr<RateMeter>> camera_rates_;
   RateMeter tracker_rate_;

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -20,6 +21,7 @@ struct Pose {
   Eigen::VectorXd dofs;
   double score = 0;   // best particle's log-likelihood
   double spread = 0;  // particle spread around the estimate
+  std::optional<double> reference_error_mm;  // vs the true pose, when the source knows it
 };
 
 using SharedPose = std::shared_ptr<const Pose>;

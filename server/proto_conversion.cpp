@@ -40,6 +40,7 @@ void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int
   for (Eigen::Index d = 0; d < pose.dofs.size(); ++d) out.add_dofs(pose.dofs[d]);
   out.set_score(pose.score);
   out.set_spread(pose.spread);
+  if (pose.reference_error_mm) out.set_reference_error_mm(*pose.reference_error_mm);
   out.set_missed_before(missed_before);
 }
 

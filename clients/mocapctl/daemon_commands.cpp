@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <stdexcept>
 #include <string>
@@ -46,6 +47,16 @@ std::string takeFlag(std::vector<std::string>& args, const std::string& name) {
   return "";
 }
 
+// Takes "--name" out of `args`; whether it was there.
+bool takeSwitch(std::vector<std::string>& args, const std::string& name) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] != name) continue;
+    args.erase(args.begin() + static_cast<std::ptrdiff_t>(i));
+    return true;
+  }
+  return false;
+}
+
 void noMoreArguments(const std::vector<std::string>& args) {
   if (!args.empty()) throw std::runtime_error("unexpected argument '" + args.front() + "'");
 }
@@ -75,6 +86,7 @@ int runStream(int argc, char** argv) {
   std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
   const std::string joints = takeFlag(args, "--joints");
   const std::string count_text = takeFlag(args, "--count");
+  const bool summary = takeSwitch(args, "--summary");
   noMoreArguments(args);
   const long count = count_text.empty() ? 0 : positiveNumber("--count", count_text);
 
@@ -91,6 +103,23 @@ int runStream(int argc, char** argv) {
   mocap::v1::Pose pose;
   long received = 0;
   while (reader->Read(&pose)) {
+    if (summary) {  // one short human-readable line per pose
+      char text[160];
+      const double latency_ms = (monotonicNowNs() - pose.capture_monotonic_ns()) / 1e6;
+      std::snprintf(text, sizeof text, "frame %6llu  latency %6.1f ms  spread %6.3f  missed %llu",
+                    static_cast<unsigned long long>(pose.frame_sequence()), latency_ms,
+                    pose.spread(), static_cast<unsigned long long>(pose.missed_before()));
+      std::cout << text;
+      if (pose.has_reference_error_mm())
+        std::cout << "  error vs truth " << std::fixed << std::setprecision(1)
+                  << pose.reference_error_mm() << " mm";
+      std::cout << "\n" << std::flush;
+      if (count > 0 && ++received >= count) {
+        context->TryCancel();
+        break;
+      }
+      continue;
+    }
     nlohmann::json line;
     line["frame"] = pose.frame_sequence();
     line["capture_monotonic_ns"] = pose.capture_monotonic_ns();
@@ -106,6 +135,7 @@ int runStream(int argc, char** argv) {
     line["score"] = pose.score();
     line["spread"] = pose.spread();
     line["missed_before"] = pose.missed_before();
+    if (pose.has_reference_error_mm()) line["reference_error_mm"] = pose.reference_error_mm();
     std::cout << line.dump() << "\n" << std::flush;
     if (count > 0 && ++received >= count) {
       context->TryCancel();

@@ -5,7 +5,8 @@
 namespace mocapctl {
 
 inline constexpr const char* kStreamUsage =
-    "stream [--joints a,b,...] [--count N]   poses as JSON lines, one a line";
+    "stream [--joints a,b,...] [--count N] [--summary]   poses as JSON lines, one a line\n"
+    "                         (--summary: one short line a pose, with the error vs the truth)";
 inline constexpr const char* kStatusUsage = "status                   the daemon's status as JSON";
 inline constexpr const char* kSkeletonUsage = "skeleton                 the tracked skeleton as JSON";
 inline constexpr const char* kRecordUsage =
