@@ -462,7 +462,7 @@ RetargetResult retargetBvh(const BodyModel& fitted, const BvhSkeleton& skeleton,
     for (std::size_t k = 1; k < result.motion.size(); ++k) {
       const double change = std::abs(result.motion[k][d] - result.motion[k - 1][d]);
       excess.worst = std::max(excess.worst, change);
-      if (change > excess.max_speed) ++excess.frames;
+      if (change > excess.max_speed + 1e-9) ++excess.frames;  // not rounding at the limit
     }
     if (excess.frames > 0) result.speed_excess.push_back(excess);
   }
