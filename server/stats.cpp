@@ -15,7 +15,6 @@ int64_t readClock(clockid_t clock) {
 }
 }  // namespace
 
-int64_t monotonicNowNs() { return readClock(CLOCK_MONOTONIC); }
 int64_t wallNowNs() { return readClock(CLOCK_REALTIME); }
 
 void RateMeter::tick(int64_t now_ns) {

@@ -7,9 +7,10 @@
 #include <cstdint>
 #include <mutex>
 
+#include "drivers/clock.h"
+
 namespace mocap {
 
-int64_t monotonicNowNs();
 int64_t wallNowNs();
 
 // Events per second over the last `kWindowNs`, from the times of the most recent events.

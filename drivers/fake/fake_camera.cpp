@@ -2,20 +2,12 @@
 #include "drivers/fake/fake_camera.h"
 
 #include <chrono>
-#include <ctime>
 
 #include <opencv2/imgproc.hpp>
 
+#include "drivers/clock.h"
+
 namespace mocap {
-namespace {
-
-int64_t monotonicNowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
-}  // namespace
 
 FakeCameraBase::~FakeCameraBase() { stop(); }
 

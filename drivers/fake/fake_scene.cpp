@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "drivers/clock.h"
 #include "tracker/experiments/hand_experiment.h"
 
 namespace mocap {
@@ -23,12 +24,6 @@ uint64_t splitmix64(uint64_t x) {
 }
 
 double unitInterval(uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
-
-int64_t monotonicNowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 // Far from the background's mid-range texture, and alternating light/dark so neighbouring
 // segments stay apart.

@@ -14,18 +14,14 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "drivers/clock.h"
+
 namespace mocap {
 namespace fs = std::filesystem;
 namespace {
 
 std::string errnoText(const std::string& what, const std::string& path) {
   return what + " " + path + ": " + std::strerror(errno);
-}
-
-int64_t monotonicNowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
 std::string utcNowIso8601() {

@@ -11,18 +11,17 @@
 
 #include <algorithm>
 #include <chrono>
-#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <future>
-#include <mutex>
 #include <thread>
 
 #include "drivers/aravis/aravis_convert.h"
 #include "drivers/aravis/aravis_driver.h"
 #include "drivers/aravis/aravis_timing.h"
+#include "tests/drivers/frame_collector.h"
 
 namespace mocap {
 namespace {
@@ -43,52 +42,9 @@ class AravisInterfaces : public ::testing::Environment {
 const auto* const kInterfaces = ::testing::AddGlobalTestEnvironment(new AravisInterfaces);
 
 // Collects what the driver delivers on its thread, for the test thread to wait on.
-class Collector {
+class Collector : public FrameCollector {
  public:
-  FrameSink frameSink() {
-    return [this](Frame&& frame) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      frames_.push_back(std::move(frame));
-      changed_.notify_all();
-    };
-  }
-  DriverEventSink eventSink() {
-    return [this](int, const std::string& message) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      events_.push_back(message);
-      changed_.notify_all();
-    };
-  }
-  bool waitForFrames(size_t count) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return changed_.wait_for(lock, kTimeout, [&] { return frames_.size() >= count; });
-  }
-  bool waitForEvent(const std::string& text) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return changed_.wait_for(lock, kTimeout, [&] {
-      return std::any_of(events_.begin(), events_.end(), [&](const std::string& event) {
-        return event.find(text) != std::string::npos;
-      });
-    });
-  }
-  std::vector<Frame> frames() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return frames_;
-  }
-  size_t frameCount() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return frames_.size();
-  }
-  std::vector<std::string> events() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return events_;
-  }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::vector<Frame> frames_;
-  std::vector<std::string> events_;
+  Collector() : FrameCollector(kTimeout) {}
 };
 
 // Runs a call that must not hang; a hung call ends the test binary, as nothing else can.

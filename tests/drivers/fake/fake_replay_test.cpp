@@ -2,9 +2,7 @@
 // a replay-mode synchronizer, exactly and deterministically.
 #include <unistd.h>
 
-#include <condition_variable>
 #include <filesystem>
-#include <mutex>
 #include <thread>
 
 #include <gmock/gmock.h>
@@ -14,6 +12,7 @@
 #include "drivers/fake/fake_driver.h"
 #include "drivers/fake/replay_pump.h"
 #include "drivers/record/recorder.h"
+#include "tests/drivers/frame_collector.h"
 
 namespace mocap {
 namespace {
@@ -80,38 +79,18 @@ class ReplayTest : public ::testing::Test {
   std::shared_ptr<FakeScene> scene_;
 };
 
-struct Received {
-  std::mutex mutex;
-  std::condition_variable changed;
-  std::vector<Frame> frames;
-  std::vector<std::string> events;
-};
-
 std::vector<Frame> playCamera(FakeDriver& driver, const CameraConfig& config, std::size_t count,
                               std::vector<std::string>* events = nullptr) {
   Expected<std::unique_ptr<Camera>> camera = driver.open(config);
   EXPECT_TRUE(camera.ok()) << camera.error();
   if (!camera.ok()) return {};
-  Received received;
-  const Status started = camera.value()->start(
-      [&](Frame&& f) {
-        std::lock_guard<std::mutex> lock(received.mutex);
-        received.frames.push_back(std::move(f));
-        received.changed.notify_all();
-      },
-      [&](int, const std::string& message) {
-        std::lock_guard<std::mutex> lock(received.mutex);
-        received.events.push_back(message);
-        received.changed.notify_all();
-      });
+  FrameCollector received(std::chrono::seconds(60));
+  const Status started = camera.value()->start(received.frameSink(), received.eventSink());
   EXPECT_TRUE(started.ok());
-  {
-    std::unique_lock<std::mutex> lock(received.mutex);
-    received.changed.wait_for(lock, std::chrono::seconds(60), [&] { return received.frames.size() >= count; });
-  }
+  received.waitForFrames(count);
   camera.value()->stop();
-  if (events) *events = received.events;
-  return received.frames;
+  if (events) *events = received.events();
+  return received.frames();
 }
 
 TEST_F(ReplayTest, ReplayCameraReproducesTheRecordingExactly) {

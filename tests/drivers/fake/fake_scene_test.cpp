@@ -1,7 +1,5 @@
 // The fake driver's scene cameras: pacing, ground truth, fault knobs, enumeration, registration.
 #include <chrono>
-#include <condition_variable>
-#include <mutex>
 #include <set>
 
 #include <gmock/gmock.h>
@@ -11,6 +9,7 @@
 
 #include "drivers/builtin_drivers.h"
 #include "drivers/fake/fake_driver.h"
+#include "tests/drivers/frame_collector.h"
 
 namespace mocap {
 namespace {
@@ -18,45 +17,10 @@ namespace {
 using ::testing::HasSubstr;
 constexpr auto kGenerous = std::chrono::seconds(60);
 
-// Collects frames and events from the driver threads.
-class Collector {
+// Collects frames and events from the driver threads; each event is kept as "<camera> <message>".
+class Collector : public FrameCollector {
  public:
-  FrameSink sink() {
-    return [this](Frame&& f) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      frames_.push_back(std::move(f));
-      changed_.notify_all();
-    };
-  }
-  DriverEventSink events() {
-    return [this](int camera, const std::string& message) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      events_.push_back(std::to_string(camera) + " " + message);
-      changed_.notify_all();
-    };
-  }
-  bool waitFrames(std::size_t count) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return changed_.wait_for(lock, kGenerous, [&] { return frames_.size() >= count; });
-  }
-  bool waitEvents(std::size_t count) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return changed_.wait_for(lock, kGenerous, [&] { return events_.size() >= count; });
-  }
-  std::vector<Frame> frames() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return frames_;
-  }
-  std::vector<std::string> eventList() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return events_;
-  }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::vector<Frame> frames_;
-  std::vector<std::string> events_;
+  Collector() : FrameCollector(kGenerous, /*prefix_camera=*/true) {}
 };
 
 FakeDriverOptions smallScene(FakePacing pacing, uint64_t frame_limit) {
@@ -94,10 +58,10 @@ TEST(FakeSceneCamera, RealTimeFramesHaveIncreasingSequencesAndTimestamps) {
   std::unique_ptr<Camera> cam0 = openCamera(driver, sceneCamera(0, options));
   std::unique_ptr<Camera> cam1 = openCamera(driver, sceneCamera(1, options));
   ASSERT_TRUE(cam0 && cam1);
-  ASSERT_TRUE(cam0->start(left.sink(), left.events()).ok());
-  ASSERT_TRUE(cam1->start(right.sink(), right.events()).ok());
-  ASSERT_TRUE(left.waitFrames(10));
-  ASSERT_TRUE(right.waitFrames(10));
+  ASSERT_TRUE(cam0->start(left.frameSink(), left.eventSink()).ok());
+  ASSERT_TRUE(cam1->start(right.frameSink(), right.eventSink()).ok());
+  ASSERT_TRUE(left.waitForFrames(10));
+  ASSERT_TRUE(right.waitForFrames(10));
   cam0->stop();
   cam1->stop();
   for (Collector* collector : {&left, &right}) {
@@ -126,8 +90,8 @@ TEST(FakeSceneCamera, GroundTruthMatchesTheRenderedImage) {
   FakeDriver driver(options);
   Collector collector;
   std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(1, options));
-  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
-  ASSERT_TRUE(collector.waitFrames(8));
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(8));
   camera->stop();
   std::shared_ptr<FakeScene> scene = driver.scene().value();
   for (const Frame& frame : collector.frames()) {
@@ -151,8 +115,8 @@ TEST(FakeSceneCamera, AsFastAsPossibleDeliversEveryFrameOnePeriodApart) {
   FakeDriver driver(options);
   Collector collector;
   std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
-  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
-  ASSERT_TRUE(collector.waitFrames(40));
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(40));
   camera->stop();
   const std::vector<Frame> frames = collector.frames();
   ASSERT_EQ(frames.size(), 40u);
@@ -172,8 +136,8 @@ TEST(FakeSceneCamera, GrayOutputWhenConfigured) {
   config.pixel_format = "GREY";
   Collector collector;
   std::unique_ptr<Camera> camera = openCamera(driver, config);
-  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
-  ASSERT_TRUE(collector.waitFrames(2));
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(2));
   camera->stop();
   EXPECT_EQ(collector.frames().front().image.type(), CV_8UC1);
 }
@@ -185,8 +149,8 @@ TEST(FakeSceneCamera, DropsAreCountedInDroppedBefore) {
   FakeDriver driver(options);
   Collector collector;
   std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
-  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
-  ASSERT_TRUE(collector.waitFrames(100));
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(100));
   camera.reset();  // stops
   const std::vector<Frame> frames = collector.frames();
   uint64_t lost = frames.front().sequence;  // drops before the first frame
@@ -209,11 +173,11 @@ TEST(FakeSceneCamera, StallStopsFramesSilentlyThenResumes) {
   driver.scene().value()->epochNs();  // the scene starts now: frame 5 lies ahead
   Collector collector;
   std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
-  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
-  ASSERT_TRUE(collector.waitFrames(1));
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(1));
   const uint64_t first = collector.frames().front().sequence;
   ASSERT_LT(first, 5u) << "the machine was too slow to start before the stall";
-  ASSERT_TRUE(collector.waitFrames(5 - first + 3));
+  ASSERT_TRUE(collector.waitForFrames(5 - first + 3));
   camera->stop();
   const std::vector<Frame> frames = collector.frames();
   bool resumed = false;
@@ -226,7 +190,7 @@ TEST(FakeSceneCamera, StallStopsFramesSilentlyThenResumes) {
     }
   }
   EXPECT_TRUE(resumed);
-  EXPECT_TRUE(collector.eventList().empty());
+  EXPECT_TRUE(collector.events().empty());
 }
 
 TEST(FakeSceneCamera, DisconnectIsReportedAndFramesResume) {
@@ -235,11 +199,11 @@ TEST(FakeSceneCamera, DisconnectIsReportedAndFramesResume) {
   FakeDriver driver(options);
   Collector collector;
   std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(1, options));
-  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
-  ASSERT_TRUE(collector.waitFrames(25));
-  ASSERT_TRUE(collector.waitEvents(2));
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(25));
+  ASSERT_TRUE(collector.waitForEvents(2));
   camera->stop();
-  const std::vector<std::string> events = collector.eventList();
+  const std::vector<std::string> events = collector.events();
   EXPECT_THAT(events[0], HasSubstr("1 scene:1: camera disconnected"));
   EXPECT_THAT(events[1], HasSubstr("1 scene:1: camera reconnected"));
   const std::vector<Frame> frames = collector.frames();
@@ -256,8 +220,8 @@ TEST(FakeSceneCamera, StopReturnsPromptlyWhileWaitingForASlowFrame) {
   CameraConfig config = sceneCamera(0, options);
   Collector collector;
   std::unique_ptr<Camera> camera = openCamera(driver, config);
-  ASSERT_TRUE(camera->start(collector.sink(), collector.events()).ok());
-  ASSERT_TRUE(collector.waitFrames(1));  // frame 0 comes at once
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(1));  // frame 0 comes at once
   camera->stop();                        // while waiting ten seconds for frame 1: wakes at once
   EXPECT_EQ(collector.frames().size(), 1u);
 }

@@ -5,15 +5,14 @@
 
 #include <algorithm>
 #include <chrono>
-#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <future>
-#include <mutex>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "drivers/v4l2/v4l2_driver.h"
+#include "tests/drivers/frame_collector.h"
 #include "tests/drivers/v4l2/emulated_v4l2_device.h"
 
 namespace mocap {
@@ -24,51 +23,9 @@ using std::chrono::milliseconds;
 constexpr milliseconds kTimeout{10'000};
 
 // Collects what the driver delivers on its thread, for the test thread to wait on.
-class Collector {
+class Collector : public FrameCollector {
  public:
-  FrameSink frameSink() {
-    return [this](Frame&& frame) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      frames_.push_back(std::move(frame));
-      changed_.notify_all();
-    };
-  }
-  DriverEventSink eventSink() {
-    return [this](int, const std::string& message) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      events_.push_back(message);
-      changed_.notify_all();
-    };
-  }
-  bool waitForFrames(size_t count) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return changed_.wait_for(lock, kTimeout, [&] { return frames_.size() >= count; });
-  }
-  // Waits for an event containing every one of the given texts.
-  bool waitForEvent(const std::vector<std::string>& texts) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return changed_.wait_for(lock, kTimeout, [&] {
-      return std::any_of(events_.begin(), events_.end(), [&](const std::string& event) {
-        return std::all_of(texts.begin(), texts.end(), [&](const std::string& text) {
-          return event.find(text) != std::string::npos;
-        });
-      });
-    });
-  }
-  std::vector<Frame> frames() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return frames_;
-  }
-  std::vector<std::string> events() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return events_;
-  }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::vector<Frame> frames_;
-  std::vector<std::string> events_;
+  Collector() : FrameCollector(kTimeout) {}
 };
 
 // Runs a call that must not hang; a hung call ends the test binary, as nothing else can.
