@@ -5,6 +5,9 @@
 #include "drivers/aravis/aravis_driver.h"
 #endif
 #include "drivers/fake/fake_driver.h"
+#ifdef MOCAP_HAVE_LIBCAMERA
+#include "drivers/libcamera/libcamera_driver.h"
+#endif
 #include "drivers/v4l2/v4l2_driver.h"
 
 namespace mocap {
@@ -14,6 +17,9 @@ void registerBuiltinDrivers(DriverRegistry& registry) {
   registerFakeDriver(registry);
 #ifdef MOCAP_HAVE_ARAVIS
   registerAravisDriver(registry);
+#endif
+#ifdef MOCAP_HAVE_LIBCAMERA
+  registerLibcameraDriver(registry);
 #endif
 }
 

@@ -44,6 +44,27 @@ grpc::Status recordingStatus(const RecordingResult& result) {
   return grpc::Status(grpc::StatusCode::UNKNOWN, result.message);
 }
 
+// 0 in a request: a second of frames at 25 Hz, enough for a stable mean and deviation.
+constexpr int kDefaultBackgroundFrames = 25;
+// The learner holds no frames, but the RPC blocks while it learns: a minute at 25 Hz is plenty.
+constexpr uint32_t kMaxBackgroundFrames = 1500;
+
+grpc::Status backgroundStatus(const BackgroundResult& result) {
+  switch (result.error) {
+    case BackgroundError::kNone: return grpc::Status::OK;
+    case BackgroundError::kReplay:
+    case BackgroundError::kBusy:
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, result.message);
+    case BackgroundError::kStalled:
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, result.message);
+    case BackgroundError::kStopped:
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE, result.message);
+    case BackgroundError::kUnusable:
+      return grpc::Status(grpc::StatusCode::INTERNAL, result.message);
+  }
+  return grpc::Status(grpc::StatusCode::UNKNOWN, result.message);
+}
+
 }  // namespace
 
 MocapServiceImpl::MocapServiceImpl(const ServerConfig& config, const BodyModel& model,
@@ -161,13 +182,28 @@ grpc::ServerUnaryReactor* MocapServiceImpl::StopRecording(grpc::CallbackServerCo
 }
 
 grpc::ServerUnaryReactor* MocapServiceImpl::CaptureBackground(
-    grpc::CallbackServerContext* context, const v1::CaptureBackgroundRequest*,
-    v1::CaptureBackgroundResponse*) {
+    grpc::CallbackServerContext* context, const v1::CaptureBackgroundRequest* request,
+    v1::CaptureBackgroundResponse* response) {
   if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
-  return finish(context,
-                grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
-                             "background capture is not wired yet: this daemon thresholds the "
-                             "camera images directly (tracker/vision's extractor comes next)"));
+  if (request->frames() > kMaxBackgroundFrames) {
+    return finish(context, grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                        "frames: at most " + std::to_string(kMaxBackgroundFrames) +
+                                            " per camera (got " +
+                                            std::to_string(request->frames()) + ")"));
+  }
+  const int frames = request->frames() == 0 ? kDefaultBackgroundFrames
+                                            : static_cast<int>(request->frames());
+  logInfo() << "background capture of " << frames << " frames requested by " << context->peer();
+  // Finished from the mask thread: the capture takes a second or more, which must not hold a
+  // gRPC callback thread.
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  pipeline_.captureBackground(frames, [reactor, response](const BackgroundResult& result) {
+    if (result.error != BackgroundError::kNone)
+      logWarning() << "background capture failed: " << result.message;
+    response->set_frames_used(static_cast<uint32_t>(result.frames_used));
+    reactor->Finish(backgroundStatus(result));
+  });
+  return reactor;
 }
 
 }  // namespace mocap

@@ -1,5 +1,6 @@
 // The gRPC MocapService on the callback API. StreamPoses gets one ServerWriteReactor per
-// subscriber (see pose_stream.cpp); every other call answers at once from the pipeline's state.
+// subscriber (see pose_stream.cpp); CaptureBackground answers when the mask thread is done; every
+// other call answers at once from the pipeline's state.
 #pragma once
 
 #include <string>

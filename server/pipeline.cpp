@@ -14,6 +14,9 @@ namespace {
 
 // How often a stage waiting for input rechecks whether the pipeline is stopping.
 constexpr auto kPollInterval = std::chrono::milliseconds(100);
+// A background capture gives up when no camera contributed a frame for this long: a stalled camera
+// must not hold the RPC forever.
+constexpr int64_t kCaptureStallNs = 3'000'000'000;
 
 FilterOptions filterOptions(const TrackerSettings& settings) {
   FilterOptions options;
@@ -58,6 +61,8 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
     camera_rates_.push_back(std::make_unique<RateMeter>());
   }
   camera_cv_types_.assign(cameras_.size(), -1);
+  extractors_.resize(cameras_.size());
+  extraction_warned_.assign(cameras_.size(), false);
 
   SyncConfig sync;
   sync.camera_count = static_cast<int>(cameras_.size());
@@ -87,6 +92,10 @@ void Pipeline::setPoseObserver(std::function<void(const Pose&)> observer) {
 
 Status Pipeline::start() {
   if (running_.exchange(true)) return Status::Error("the pipeline is already running");
+  {
+    std::lock_guard lock(capture_mutex_);
+    accepting_captures_ = true;
+  }
   mask_thread_ = std::thread([this] { maskLoop(); });
   tracker_thread_ = std::thread([this] { trackerLoop(); });
   publisher_thread_ = std::thread([this] { publisherLoop(); });
@@ -154,6 +163,81 @@ SilhouetteMask Pipeline::thresholdMask(const cv::Mat& image) {
   return SilhouetteMask(binary);
 }
 
+void Pipeline::captureBackground(int frames,
+                                 std::function<void(const BackgroundResult&)> done) {
+  if (replay_) {
+    // Replay must give the same poses every run, from the recorded frames alone.
+    done({BackgroundError::kReplay, "background capture needs live cameras, not a replay", 0});
+    return;
+  }
+  auto capture = std::make_unique<BackgroundCapture>();
+  capture->frames = frames;
+  capture->done = std::move(done);
+  capture->learners.resize(cameras_.size());
+  capture->last_progress_ns = monotonicNowNs();
+  std::unique_lock lock(capture_mutex_);
+  if (!accepting_captures_) {
+    lock.unlock();
+    capture->done({BackgroundError::kStopped, "the pipeline is not running", 0});
+    return;
+  }
+  if (capture_busy_) {
+    lock.unlock();
+    capture->done({BackgroundError::kBusy, "a background capture is already under way", 0});
+    return;
+  }
+  capture_busy_ = true;
+  capture_request_ = std::move(capture);
+}
+
+void Pipeline::learnBackground(BackgroundCapture& capture, std::size_t camera,
+                               const cv::Mat& image) {
+  BackgroundLearner& learner = capture.learners[camera];
+  if (learner.frames() >= capture.frames) return;
+  if (learner.add(image)) capture.last_progress_ns = monotonicNowNs();
+}
+
+void Pipeline::endCapture(BackgroundCapture& capture, const BackgroundResult& result) {
+  {
+    std::lock_guard lock(capture_mutex_);
+    capture_busy_ = false;
+  }
+  capture.done(result);
+}
+
+bool Pipeline::finishBackground(BackgroundCapture& capture) {
+  bool complete = true;
+  for (const BackgroundLearner& learner : capture.learners)
+    complete = complete && learner.frames() >= capture.frames;
+  if (!complete) {
+    if (monotonicNowNs() - capture.last_progress_ns < kCaptureStallNs) return false;
+    std::string counts;
+    for (std::size_t c = 0; c < capture.learners.size(); ++c) {
+      counts += (c ? ", " : "") + std::string("camera ") + std::to_string(c) + ": " +
+                std::to_string(capture.learners[c].frames());
+    }
+    endCapture(capture, {BackgroundError::kStalled,
+                         "no usable frame for " + std::to_string(kCaptureStallNs / 1'000'000'000) +
+                             " s; frames learned of " + std::to_string(capture.frames) + " (" +
+                             counts + ")",
+                         0});
+    return true;
+  }
+  std::vector<std::unique_ptr<SilhouetteExtractor>> extractors;
+  try {
+    for (const BackgroundLearner& learner : capture.learners)
+      extractors.push_back(std::make_unique<SilhouetteExtractor>(learner.model()));
+  } catch (const std::exception& error) {
+    endCapture(capture, {BackgroundError::kUnusable, error.what(), 0});
+    return true;
+  }
+  extractors_ = std::move(extractors);
+  extraction_warned_.assign(cameras_.size(), false);
+  logInfo() << "background learned from " << capture.frames << " frames per camera";
+  endCapture(capture, {BackgroundError::kNone, "", capture.frames});
+  return true;
+}
+
 void Pipeline::maskLoop() {
   // A camera missing from a set keeps its previous silhouette: the tracker degrades gracefully
   // instead of seeing an empty view.
@@ -161,7 +245,14 @@ void Pipeline::maskLoop() {
   for (std::size_t c = 0; c < cameras_.size(); ++c)
     latest[c] = SilhouetteMask(cv::Mat::zeros(rig_[c].height, rig_[c].width, CV_8UC1));
   std::vector<bool> size_warned(cameras_.size(), false);
+  std::unique_ptr<BackgroundCapture> capture;
   while (true) {
+    if (!capture) {
+      std::lock_guard lock(capture_mutex_);
+      capture = std::move(capture_request_);
+    }
+    // Also checked without frames, so a capture on stalled cameras ends.
+    if (capture && finishBackground(*capture)) capture.reset();
     std::optional<FrameSet> set = synchronizer_->pop(kPollInterval);
     if (!set) {
       if (!input_closed_) continue;
@@ -180,15 +271,6 @@ void Pipeline::maskLoop() {
     std::vector<cv::Mat> truth;
     for (std::size_t c = 0; c < cameras_.size(); ++c) {
       if (c >= set->frames.size() || !set->frames[c]) continue;
-      if (ground_truth_) {
-        // The frames of one set normally share the scene's frame number: rendered once.
-        if (truth_sequence != set->frames[c]->sequence) {
-          truth_sequence = set->frames[c]->sequence;
-          truth = ground_truth_(*truth_sequence);
-        }
-        if (c < truth.size()) latest[c] = SilhouetteMask(truth[c]);
-        continue;
-      }
       const cv::Mat& image = set->frames[c]->image;
       if (image.cols != rig_[c].width || image.rows != rig_[c].height || image.depth() != CV_8U) {
         if (!size_warned[c]) {
@@ -199,11 +281,38 @@ void Pipeline::maskLoop() {
         }
         continue;
       }
-      latest[c] = thresholdMask(image);
+      if (capture) learnBackground(*capture, c, image);
+      if (ground_truth_) {
+        // The frames of one set normally share the scene's frame number: rendered once.
+        if (truth_sequence != set->frames[c]->sequence) {
+          truth_sequence = set->frames[c]->sequence;
+          truth = ground_truth_(*truth_sequence);
+        }
+        if (c < truth.size()) latest[c] = SilhouetteMask(truth[c]);
+        continue;
+      }
+      if (!extractors_[c]) {
+        latest[c] = thresholdMask(image);
+      } else if (extractors_[c]->extract(image)) {
+        latest[c] = extractors_[c]->silhouette();
+      } else if (!extraction_warned_[c]) {
+        // Keeps the previous silhouette, like a missing frame.
+        logWarning() << "camera " << c << ": silhouette extraction failed: "
+                     << extractors_[c]->lastError();
+        extraction_warned_[c] = true;
+      }
     }
     masks.masks = latest;
     masks_.push(std::move(masks));
   }
+  std::unique_ptr<BackgroundCapture> pending;
+  {
+    std::lock_guard lock(capture_mutex_);
+    accepting_captures_ = false;
+    pending = std::move(capture_request_);
+  }
+  if (!capture) capture = std::move(pending);
+  if (capture) endCapture(*capture, {BackgroundError::kStopped, "the pipeline stopped", 0});
   masks_.close();
 }
 

@@ -33,6 +33,8 @@
 #include "tracker/filter.h"
 #include "tracker/kinematics.h"
 #include "tracker/silhouette_mask.h"
+#include "tracker/vision/background_model.h"
+#include "tracker/vision/silhouette_extractor.h"
 #include "tracker/worker_pool.h"
 
 namespace mocap {
@@ -53,7 +55,8 @@ struct PipelineInputs {
   std::vector<OpenedCamera> cameras;
   // Replay: the session that feeds the synchronizer instead of the cameras.
   std::shared_ptr<const SessionReader> replay;
-  // Used instead of thresholding the images when set.
+  // Used instead of extracting silhouettes from the images when set: the fake scene's demo
+  // measures tracking, not segmentation.
   GroundTruthSilhouettes ground_truth;
   // The true pose of a frame set, when the source knows it (the fake scene): published poses then
   // carry their error against it.
@@ -94,6 +97,14 @@ struct RecordingResult {
   RecordingStatus status;
 };
 
+// Why a background capture failed, so the service can pick the gRPC code.
+enum class BackgroundError { kNone, kReplay, kBusy, kStalled, kStopped, kUnusable };
+struct BackgroundResult {
+  BackgroundError error = BackgroundError::kNone;
+  std::string message;
+  int frames_used = 0;  // per camera
+};
+
 class Pipeline {
  public:
   // The model, rig and publisher are borrowed and must outlive the pipeline. Throws
@@ -120,6 +131,12 @@ class Pipeline {
   RecordingResult startRecording(const std::string& relative_path);
   RecordingResult stopRecording();
 
+  // Has the mask thread learn the empty scene from the next `frames` frames of every camera, then
+  // extract silhouettes against it. `done` is called once: at once on a refusal, else on the mask
+  // thread when the backgrounds are installed, when no usable frame came for a while, or when the
+  // pipeline stops. It must not block.
+  void captureBackground(int frames, std::function<void(const BackgroundResult&)> done);
+
   PipelineStatus status() const;
   const std::vector<OpenedCamera>& cameras() const { return cameras_; }
 
@@ -129,14 +146,26 @@ class Pipeline {
     int64_t timestamp_ns = 0;
     std::vector<SilhouetteMask> masks;
   };
+  struct BackgroundCapture {
+    int frames = 0;
+    std::function<void(const BackgroundResult&)> done;
+    std::vector<BackgroundLearner> learners;  // per camera
+    int64_t last_progress_ns = 0;
+  };
 
   void replayLoop();
   void maskLoop();
   void trackerLoop();
   void publisherLoop();
-  // Foreground where the image is brighter than mid-grey: the fake scene's silhouettes, or a lit
-  // subject against a dark background, until tracker/vision's extractor is wired in.
+  // Foreground where the image is brighter than mid-grey: a lit subject against a dark background,
+  // until a background is captured.
   static SilhouetteMask thresholdMask(const cv::Mat& image);
+  // Mask thread: feeds a camera's frame to the capture under way.
+  static void learnBackground(BackgroundCapture& capture, std::size_t camera, const cv::Mat& image);
+  // Mask thread: installs the extractors once every camera has its frames, or gives up when none
+  // came for too long. True when the capture is over (its `done` called).
+  bool finishBackground(BackgroundCapture& capture);
+  void endCapture(BackgroundCapture& capture, const BackgroundResult& result);
   RecordingStatus recordingStatusLocked() const;
 
   const ServerConfig config_;
@@ -171,6 +200,15 @@ class Pipeline {
   int64_t recording_started_wall_ns_ = 0;
   RecordingStatus last_recording_;
   std::vector<int> camera_cv_types_;  // of the latest frames, -1 before the first
+
+  // A background capture, handed from the requester to the mask thread under capture_mutex_.
+  std::mutex capture_mutex_;
+  std::unique_ptr<BackgroundCapture> capture_request_;
+  bool capture_busy_ = false;        // requested or under way
+  bool accepting_captures_ = false;  // while the mask thread runs
+  // Mask thread only: per camera, null until a background is captured.
+  std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;
+  std::vector<bool> extraction_warned_;
 
   std::atomic<bool> running_{false};
   std::atomic<bool> input_closed_{false};

@@ -1,6 +1,6 @@
 // End to end on loopback, with the daemon in-process on the fake scene (2 cameras, 780x580,
 // 25 Hz): C++ and Python subscribers keep up with the frame rate while another subscriber never
-// reads; health; the bearer token; recording paths; replay determinism.
+// reads; health; the bearer token; recording paths; replay determinism; background capture.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -230,6 +230,43 @@ TEST_F(EndToEndTest, RecordingStaysInsideItsDirectory) {
   server->shutdown();
   fs::remove_all(root);
   fs::remove_all(outside);
+}
+
+TEST_F(EndToEndTest, CaptureBackgroundLearnsWhilePosesFlow) {
+  std::unique_ptr<MocapServer> server = startServer(test::sceneConfig());
+  ASSERT_TRUE(server);
+  auto stub = test::connect(server->port());
+  test::PoseCounter poses(*stub);
+  {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    v1::CaptureBackgroundRequest request;
+    request.set_frames(10);
+    v1::CaptureBackgroundResponse response;
+    const grpc::Status status = stub->CaptureBackground(&context, request, &response);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(response.frames_used(), 10u);
+  }
+  {
+    grpc::ClientContext context;
+    v1::CaptureBackgroundRequest request;
+    request.set_frames(1'000'000);
+    v1::CaptureBackgroundResponse response;
+    const grpc::Status status = stub->CaptureBackground(&context, request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_THAT(status.error_message(), ::testing::HasSubstr("frames"));
+  }
+  // The fake scene keeps its ground-truth silhouettes: tracking goes on after the capture.
+  poses.startCounting();
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  poses.stopCounting();
+  EXPECT_GE(poses.received(), 15u);
+  grpc::ClientContext context;
+  v1::Status status;
+  ASSERT_TRUE(stub->GetStatus(&context, {}, &status).ok());
+  EXPECT_EQ(status.cameras(0).state(), v1::CAMERA_STATE_STREAMING);
+  EXPECT_GT(status.poses_published(), 0u);
+  server->shutdown();
 }
 
 // Every pose of a replay: frame sequence and DOF vector.
