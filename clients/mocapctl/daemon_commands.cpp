@@ -2,6 +2,7 @@
 #include "clients/mocapctl/daemon_commands.h"
 
 #include <time.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -76,8 +77,16 @@ int64_t monotonicNowNs() {
   return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
-// One line on stderr, rewritten in place, for commands that run for a while.
-void progress(const std::string& text) { std::cerr << "\r" << text << std::flush; }
+// One line on stderr for commands that run for a while: rewritten in place on a terminal, one line
+// per update when stderr is a file or a pipe.
+void progress(const std::string& text) {
+  static const bool terminal = isatty(STDERR_FILENO) == 1;
+  if (terminal) {
+    std::cerr << "\r" << text << std::flush;
+  } else {
+    std::cerr << text << "\n";
+  }
+}
 
 }  // namespace
 

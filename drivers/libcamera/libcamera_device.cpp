@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
 
@@ -45,6 +46,9 @@ Expected<std::shared_ptr<libcamera::CameraManager>> sharedCameraManager() {
   static std::weak_ptr<libcamera::CameraManager> shared;
   std::lock_guard<std::mutex> lock(mutex);
   if (std::shared_ptr<libcamera::CameraManager> manager = shared.lock()) return manager;
+  // libcamera logs INFO lines to stderr on every start; a daemon wants only its errors (an explicit
+  // LIBCAMERA_LOG_LEVELS from the environment still wins).
+  setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", 0);
   auto manager = std::make_unique<libcamera::CameraManager>();
   if (const int ret = manager->start(); ret < 0) {
     return Status::Error(versionLabel() + ": starting the camera manager: " + errorText(ret));
