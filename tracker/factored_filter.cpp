@@ -6,7 +6,9 @@
 // candidates drawn instead from the DOF's whole range (static particle injection), weighs each
 // candidate by its segment's masked-chain likelihood and keeps the K best without uniformizing
 // their weights. A particle remembers, per segment, the node holding that segment's world pose and
-// footprints, so later layers extend its chain and mask what it already explains.
+// footprints, so later layers extend its chain and mask what it already explains. Optionally a
+// layer ranks its candidates by a look-ahead over more of the body (FilterOptions::Lookahead) while
+// each particle's weight keeps only the paper's factor.
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -22,7 +24,7 @@ namespace {
 struct Layer {
   int segment = -1;
   int dof = -1;             // -1: observation only (a DOF-less segment moved by its ancestors)
-  bool lookahead = false;   // ranked by the segment's subtree (see FilterOptions::Lookahead)
+  bool lookahead = false;   // ranked by a look-ahead (see FilterOptions::Lookahead)
 };
 
 // A segment placed in one particle's chain: its world pose and footprints (one per camera).

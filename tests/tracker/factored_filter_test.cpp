@@ -60,6 +60,34 @@ TEST(FactoredFilter, ResultsDoNotDependOnTheThreadCount) {
   }
 }
 
+TEST(FactoredFilter, LookAheadKeepsTheBudgetAndThreadIndependence) {
+  HandScene scene;
+  const Motion motion = generateMotion(scene.model, 4, 6);
+  std::vector<std::vector<SilhouetteMask>> frames;
+  for (const auto& q : motion) frames.push_back(scene.masks(q));
+  for (auto mode : {FilterOptions::Lookahead::kSubtree, FilterOptions::Lookahead::kBody}) {
+    std::vector<Eigen::VectorXd> first;
+    for (int threads : {1, 2}) {
+      WorkerPool pool(threads);
+      FilterOptions options;
+      options.lookahead = mode;
+      auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
+      filter->reset(motion[0]);
+      for (std::size_t f = 0; f < frames.size(); ++f) {
+        const FrameEstimate e = filter->step(frames[f]);
+        EXPECT_EQ(e.evaluations, 375);  // the look-ahead costs renders, not evaluations
+        EXPECT_GT(e.segment_renders, 375);
+        if (threads == 1) {
+          first.push_back(e.q);
+        } else {
+          EXPECT_EQ(e.q, first[f]) << "frame " << f;
+        }
+      }
+      EXPECT_LT(scene.pointError(first.back(), motion.back()), 0.01);
+    }
+  }
+}
+
 TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {
   // The index MCP starts 60 degrees off. Interval sampling alone moves at most 8 degrees a frame;
   // static particle injection can jump there at once.
