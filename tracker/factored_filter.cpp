@@ -258,7 +258,11 @@ class FactoredFilter final : public PoseFilter {
         c.log_weight = particles_[p].log_weight;
       }
     }
+    // Positions have no bounded static distribution (a root uniform over a 20 m room lands off
+    // every camera, where an empty footprint outscores a misplaced body): inject joint angles only,
+    // carrying the share over to the next rotation layer.
     injection_debt += options_.injection_share * count;
+    if (dof.type == DofType::kTranslation) return count;
     const int injected = std::min(count, static_cast<int>(injection_debt));
     injection_debt -= injected;
     std::uniform_real_distribution<double> anywhere(dof.min, dof.max);
