@@ -1,6 +1,8 @@
 // The recorder: path checks, session creation, and the writer thread's crash-safe write order.
 #include "drivers/record/recorder.h"
 
+#include "drivers/record/png_writer.h"
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -255,9 +257,7 @@ bool Recorder::writeSet(const FrameSet& set) {
   std::vector<std::vector<uint8_t>> encoded(accepted.size());
   std::vector<std::future<bool>> helpers;
   const auto encode = [&](std::size_t k) {
-    return cv::imencode(".png", set.frames[accepted[k]]->image, encoded[k],
-                        {cv::IMWRITE_PNG_COMPRESSION, options_.png_compression, cv::IMWRITE_PNG_STRATEGY,
-                         cv::IMWRITE_PNG_STRATEGY_RLE});
+    return encodePng(set.frames[accepted[k]]->image, options_.png_compression, encoded[k]);
   };
   for (std::size_t k = 1; k < accepted.size(); ++k) helpers.push_back(std::async(std::launch::async, encode, k));
   bool encoded_all = accepted.empty() || encode(0);
