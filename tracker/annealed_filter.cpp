@@ -72,7 +72,7 @@ class AnnealedFilter final : public PoseFilter {
     FrameEstimate estimate;
     for (int layer = 0; layer < options_.annealing_layers; ++layer) {
       if (layer > 0) {
-        resampleSystematic(log_weights, particles_, rng_);
+        resampleSystematic(log_weights, particles_, resampled_, rng_);
         const double scale = std::pow(kSurvivalRate, layer);
         for (Eigen::VectorXd& q : particles_) diffuseGaussian(q, scale);
       }
@@ -89,7 +89,7 @@ class AnnealedFilter final : public PoseFilter {
     for (const Eigen::VectorXd& q : particles_) qs.push_back(&q);
     weightedEstimate(qs, log_weights, estimate);
     // The next frame starts from a draw of this frame's posterior.
-    resampleSystematic(log_weights, particles_, rng_);
+    resampleSystematic(log_weights, particles_, resampled_, rng_);
     return estimate;
   }
 
@@ -110,7 +110,7 @@ class AnnealedFilter final : public PoseFilter {
   std::mt19937_64 rng_;
   FullBodyEvaluator evaluator_;
   int particle_count_ = 0;
-  std::vector<Eigen::VectorXd> particles_;
+  std::vector<Eigen::VectorXd> particles_, resampled_;
 };
 
 }  // namespace

@@ -35,7 +35,7 @@ class CondensationFilter final : public PoseFilter {
 
   FrameEstimate step(const std::vector<SilhouetteMask>& masks) override {
     if (particles_.empty()) reset(model_.neutralPose());
-    resampleSystematic(log_weights_, particles_, rng_);
+    resampleSystematic(log_weights_, particles_, resampled_, rng_);
     for (Eigen::VectorXd& q : particles_) diffuseUniform(model_, q, rng_);
     const int n = static_cast<int>(particles_.size());
     pool_.parallelFor(n, [&](int i, int worker) {
@@ -57,7 +57,7 @@ class CondensationFilter final : public PoseFilter {
   WorkerPool& pool_;
   std::mt19937_64 rng_;
   FullBodyEvaluator evaluator_;
-  std::vector<Eigen::VectorXd> particles_;
+  std::vector<Eigen::VectorXd> particles_, resampled_;
   std::vector<double> log_weights_;
 };
 

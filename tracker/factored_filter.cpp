@@ -208,7 +208,7 @@ class FactoredFilter final : public PoseFilter {
       std::fill(p.node.begin(), p.node.end(), -1);
     }
     if (static_segments_.empty()) return;
-    KinematicsData kin(model_);
+    KinematicsData& kin = scratch_[0].kinematics;  // workers are idle between layers
     forwardKinematics(model_, kin, particles_[0].q);
     ShapeRasterizer& rasterizer = scratch_[0].rasterizer;
     for (int s : static_segments_) {

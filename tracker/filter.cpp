@@ -35,21 +35,22 @@ std::pair<double, double> proposalInterval(const Dof& dof, double value) {
 }
 
 void resampleSystematic(const std::vector<double>& log_weights,
-                        std::vector<Eigen::VectorXd>& particles, std::mt19937_64& rng) {
+                        std::vector<Eigen::VectorXd>& particles,
+                        std::vector<Eigen::VectorXd>& scratch, std::mt19937_64& rng) {
   const std::size_t n = particles.size();
   const double best = *std::max_element(log_weights.begin(), log_weights.end());
   std::vector<double> cdf(n);
   double sum = 0;
   for (std::size_t i = 0; i < n; ++i) cdf[i] = sum += std::exp(log_weights[i] - best);
   const double offset = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
-  std::vector<Eigen::VectorXd> next(n);
+  scratch.resize(n);
   std::size_t j = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const double target = (i + offset) / n * sum;
     while (j + 1 < n && cdf[j] < target) ++j;
-    next[i] = particles[j];
+    scratch[i] = particles[j];
   }
-  particles.swap(next);
+  particles.swap(scratch);
 }
 
 void diffuseUniform(const BodyModel& model, Eigen::VectorXd& q, std::mt19937_64& rng) {

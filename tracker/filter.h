@@ -78,9 +78,11 @@ std::unique_ptr<PoseFilter> makeAnnealedFilter(const BodyModel& model, const Rig
                                                const FilterOptions& options, WorkerPool& pool);
 
 // Systematic resampling: replaces `particles` by a draw proportional to exp(log_weights) (one
-// uniform offset, N equally spaced pointers into the CDF).
+// uniform offset, N equally spaced pointers into the CDF). `scratch` is the caller's buffer, kept
+// between frames so no particle is reallocated.
 void resampleSystematic(const std::vector<double>& log_weights,
-                        std::vector<Eigen::VectorXd>& particles, std::mt19937_64& rng);
+                        std::vector<Eigen::VectorXd>& particles,
+                        std::vector<Eigen::VectorXd>& scratch, std::mt19937_64& rng);
 
 // Moves every DOF of q to a uniform sample of its proposal interval (see proposalInterval).
 void diffuseUniform(const BodyModel& model, Eigen::VectorXd& q, std::mt19937_64& rng);

@@ -30,23 +30,7 @@ TEST(AnnealedFilter, ApproachesAStaticPoseAndSpendsItsBudget) {
 }
 
 TEST(AnnealedFilter, ResultsDoNotDependOnTheThreadCount) {
-  HandScene scene;
-  const Motion motion = generateMotion(scene.model, 3, 4);
-  std::vector<Eigen::VectorXd> first;
-  for (int threads : {1, 2}) {
-    WorkerPool pool(threads);
-    FilterOptions options;
-    auto filter = makeFilter("annealed", scene.model, scene.rig, options, pool);
-    filter->reset(motion[0]);
-    for (std::size_t f = 0; f < motion.size(); ++f) {
-      const Eigen::VectorXd q = filter->step(scene.masks(motion[f])).q;
-      if (threads == 1) {
-        first.push_back(q);
-      } else {
-        EXPECT_EQ(q, first[f]) << "frame " << f;
-      }
-    }
-  }
+  testing_support::expectSameEstimatesForThreadCounts("annealed", FilterOptions(), {1, 2}, 3);
 }
 
 }  // namespace

@@ -2,10 +2,15 @@
 // filters do not care, and the suite stays fast), and silhouettes of a pose.
 #pragma once
 
+#include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "tracker/experiments/hand_experiment.h"
+#include "tracker/filter.h"
 #include "tracker/kinematics.h"
+#include "tracker/motion.h"
 #include "tracker/scene.h"
 
 namespace mocap::testing_support {
@@ -41,5 +46,31 @@ struct HandScene {
     return out;
   }
 };
+
+// Tracks a short generated motion with each thread count and expects the very same estimates:
+// candidates are generated in one thread and ranked with deterministic ties, so the pool's
+// scheduling must not show.
+inline void expectSameEstimatesForThreadCounts(const std::string& method,
+                                               const FilterOptions& options,
+                                               const std::vector<int>& thread_counts, int frames) {
+  HandScene scene;
+  const Motion motion = generateMotion(scene.model, frames, 4);
+  std::vector<std::vector<SilhouetteMask>> masks;
+  for (const auto& q : motion) masks.push_back(scene.masks(q));
+  std::vector<Eigen::VectorXd> first;
+  for (int threads : thread_counts) {
+    WorkerPool pool(threads);
+    auto filter = makeFilter(method, scene.model, scene.rig, options, pool);
+    filter->reset(motion[0]);
+    for (std::size_t f = 0; f < motion.size(); ++f) {
+      const Eigen::VectorXd q = filter->step(masks[f]).q;
+      if (first.size() < motion.size()) {
+        first.push_back(q);
+      } else {
+        EXPECT_EQ(q, first[f]) << method << ", " << threads << " threads, frame " << f;
+      }
+    }
+  }
+}
 
 }  // namespace mocap::testing_support
