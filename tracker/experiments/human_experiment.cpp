@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <random>
 
@@ -13,6 +14,7 @@
 #include "tracker/bvh.h"
 #include "tracker/experiments/args.h"
 #include "tracker/experiments/commands.h"
+#include "tracker/full_body.h"
 #include "tracker/human_model_yaml.h"
 #include "tracker/kinematics.h"
 #include "tracker/retarget.h"
@@ -147,6 +149,17 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   std::vector<double> frame_error;
   long evaluations = 0, renders = 0;
   double tracking_seconds = 0;
+  // Per-frame trace: tells a search failure (the estimate scores below the truth) from an
+  // ambiguity of the silhouettes (it scores as well or better while far off).
+  std::ofstream trace;
+  std::unique_ptr<FullBodyEvaluator> scorer;
+  if (!config.trace_path.empty()) {
+    trace.open(config.trace_path);
+    if (!trace) throw std::runtime_error("--trace: cannot write '" + config.trace_path + "'");
+    trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,root_yaw_error_deg\n";
+    scorer = std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
+  }
+  const int root_yaw = model.dofIndex("root_yaw");
   for (int f = 0; f < frames; ++f) {
     const bool realistic = config.noise == "realistic";
     // A limb missed by segmentation in one camera for 5 frames out of every 50.
@@ -173,6 +186,13 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       sum += e;
     }
     frame_error.push_back(sum / true_points.size());
+    if (scorer) {
+      trace << f << ',' << frame_error.back() << ','
+            << logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0)) << ','
+            << logLikelihood(options.likelihood, scorer->evaluate(estimate.q, masks, 0)) << ','
+            << (root_yaw >= 0 ? (estimate.q[root_yaw] - truth[f][root_yaw]) * 180 / M_PI : 0.0)
+            << '\n';
+    }
   }
 
   nlohmann::json joints = nlohmann::json::object();
@@ -219,7 +239,7 @@ int runHumanCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
                   {"motion", "method", "evals", "cameras", "frames", "seed", "dofs", "noise",
                    "start-offset", "threads", "model", "injection", "keep", "samples", "layers",
-                   "lookahead", "estimate"},
+                   "lookahead", "estimate", "trace"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -233,6 +253,7 @@ int runHumanCommand(int argc, char** argv) {
   config.start_offset = args.text("start-offset", config.start_offset);
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
   config.model_path = args.text("model", "");
+  config.trace_path = args.text("trace", "");
   config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
   config.filter.keep = static_cast<int>(args.integer("keep", config.filter.keep, 1, 100000));
   config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));

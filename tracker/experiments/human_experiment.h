@@ -44,6 +44,7 @@ struct HumanExperimentConfig {
   std::string start_offset = "none";  // none | arm60 | body30cm
   int threads = 0;
   std::string model_path;           // empty: the built-in human
+  std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   FilterOptions filter;             // evaluations and seed come from the fields above
 };
 
