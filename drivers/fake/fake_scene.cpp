@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "drivers/clock.h"
-#include "tracker/experiments/hand_experiment.h"
+#include "tracker/builtin_models.h"
 
 namespace mocap {
 namespace {

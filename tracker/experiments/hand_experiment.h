@@ -8,16 +8,11 @@
 #include <nlohmann/json.hpp>
 
 #include "tracker/body_model.h"
+#include "tracker/builtin_models.h"
 #include "tracker/camera.h"
 #include "tracker/filter.h"
 
 namespace mocap {
-
-// The built-in hand model (tracker/models/hand.yaml, compiled in).
-BodyModel builtinHandModel();
-
-// `cameras` virtual cameras spread over an arc in front of the palm, looking at the hand.
-Rig handRig(int cameras, int width = 780, int height = 580);
 
 struct HandExperimentConfig {
   std::string method = "factored";

@@ -9,20 +9,18 @@
 #include <iostream>
 #include <random>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "tracker/bvh.h"
 #include "tracker/experiments/args.h"
 #include "tracker/experiments/commands.h"
 #include "tracker/full_body.h"
-#include "tracker/human_model_yaml.h"
 #include "tracker/kinematics.h"
 #include "tracker/retarget.h"
 #include "tracker/scene.h"
 
 namespace mocap {
-
-BodyModel builtinHumanModel() { return parseBodyModel(kHumanModelYaml, "built-in human.yaml"); }
 
 Rig labRig(int cameras, const BodyModel& model, const Motion& motion, int width, int height) {
   // The horizontal extent of the pelvis path.
@@ -102,6 +100,24 @@ Eigen::VectorXd misplaced(const BodyModel& model, Eigen::VectorXd q, const std::
   throw std::invalid_argument("--start-offset: expected none, arm60 or body30cm, got '" + offset + "'");
 }
 
+// Every camera's true silhouette (grey) with the outline of the estimate's (red), for looking at
+// what the tracker got wrong: <dir>/frame<f>_<camera>.png.
+void writeOverlays(const std::string& dir, int frame, const std::vector<SilhouetteMask>& masks,
+                   SceneRenderer& renderer, const Eigen::VectorXd& estimate) {
+  std::vector<cv::Mat> estimated;
+  renderer.renderSilhouettes(estimate, estimated);
+  for (std::size_t c = 0; c < masks.size(); ++c) {
+    const cv::Mat grey = masks[c].toMat() / 2;
+    cv::Mat image;
+    cv::merge(std::vector<cv::Mat>{grey, grey, grey}, image);
+    std::vector<std::vector<cv::Point>> outline;
+    cv::findContours(estimated[c], outline, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
+    cv::drawContours(image, outline, -1, cv::Scalar(0, 0, 255), 1);
+    const std::string path = dir + "/frame" + std::to_string(frame) + "_cam" + std::to_string(c) + ".png";
+    if (!cv::imwrite(path, image)) throw std::runtime_error("--overlay: cannot write '" + path + "'");
+  }
+}
+
 }  // namespace
 
 nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
@@ -110,6 +126,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (config.noise != "none" && config.noise != "realistic")
     throw std::invalid_argument("--noise: expected none or realistic, got '" + config.noise + "'");
   if (config.motion_path.empty()) throw std::invalid_argument("--motion FILE.bvh is required");
+  if (!config.overlay_dir.empty() && !std::filesystem::is_directory(config.overlay_dir))
+    throw std::invalid_argument("--overlay: '" + config.overlay_dir + "' is not a directory");
   const BodyModel base =
       config.model_path.empty() ? builtinHumanModel() : loadBodyModel(config.model_path);
   const Bvh bvh = loadBvh(config.motion_path);
@@ -186,6 +204,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       sum += e;
     }
     frame_error.push_back(sum / true_points.size());
+    if (!config.overlay_dir.empty() && f % 10 == 0) writeOverlays(config.overlay_dir, f, masks, renderer, estimate.q);
     if (scorer) {
       trace << f << ',' << frame_error.back() << ','
             << logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0)) << ','
@@ -239,7 +258,7 @@ int runHumanCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
                   {"motion", "method", "evals", "cameras", "frames", "seed", "dofs", "noise",
                    "start-offset", "threads", "model", "injection", "keep", "samples", "layers",
-                   "lookahead", "estimate", "trace"},
+                   "lookahead", "estimate", "trace", "overlay"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -254,6 +273,7 @@ int runHumanCommand(int argc, char** argv) {
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
+  config.overlay_dir = args.text("overlay", "");
   config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
   config.filter.keep = static_cast<int>(args.integer("keep", config.filter.keep, 1, 100000));
   config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));

@@ -12,14 +12,12 @@
 #include <opencv2/core/mat.hpp>
 
 #include "tracker/body_model.h"
+#include "tracker/builtin_models.h"
 #include "tracker/camera.h"
 #include "tracker/filter.h"
 #include "tracker/motion.h"
 
 namespace mocap {
-
-// The built-in human model (tracker/models/human.yaml, compiled in).
-BodyModel builtinHumanModel();
 
 // `cameras` cameras on a circle around the volume the motion covers, 1.6 m high, looking at the
 // middle of the body's path, the first two 90 degrees apart as a lab would place a pair; the focal
@@ -45,6 +43,7 @@ struct HumanExperimentConfig {
   int threads = 0;
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
+  std::string overlay_dir;          // every 10th frame: truth vs estimate PNGs per camera; empty: none
   FilterOptions filter;             // evaluations and seed come from the fields above
 };
 
