@@ -73,6 +73,7 @@ struct WorkerScratch {
   std::vector<Footprint> footprints;              // per camera, of the descendant being looked at
   std::vector<Eigen::Isometry3d> poses;           // per segment, for the look-ahead
   std::vector<RowSpan> lookahead_spans;           // per descendant, per camera, max_rows each
+  std::vector<int> placed;                        // first footprint of each explained node
 };
 
 class FactoredFilter final : public PoseFilter {
@@ -279,13 +280,19 @@ class FactoredFilter final : public PoseFilter {
     cand.pose = parent_segment < 0 ? local : nodes_[parent.node[parent_segment]].pose * local;
 
     WorkerScratch& scratch = scratch_[worker];
+    // The parent's placed segments are found once, then copied per camera (no push_back per
+    // footprint: this runs for every candidate).
+    std::vector<int>& placed = scratch.placed;
+    placed.clear();
+    for (std::size_t j = 0; j < parent.node.size(); ++j) {
+      if (static_cast<int>(j) == s || parent.node[j] < 0) continue;
+      placed.push_back(nodes_[parent.node[j]].first_footprint);
+    }
     for (std::size_t c = 0; c < rig_.size(); ++c) {
       std::vector<Footprint>& explained = scratch.explained[c];
-      explained.clear();
-      for (std::size_t j = 0; j < parent.node.size(); ++j) {
-        if (static_cast<int>(j) == s || parent.node[j] < 0) continue;
-        explained.push_back(node_footprints_[nodes_[parent.node[j]].first_footprint + c]);
-      }
+      explained.resize(placed.size());
+      for (std::size_t k = 0; k < placed.size(); ++k)
+        explained[k] = node_footprints_[placed[k] + c];
     }
     RowSpan* spans[kMaxCameras];
     for (std::size_t c = 0; c < rig_.size(); ++c) spans[c] = candidateSpans(i, c);

@@ -6,13 +6,145 @@
 
 namespace mocap {
 
+namespace {
+
+using Row = SilhouetteMask::Row;
+
+// Rows [y, end) of `spans` (starting at row y) with nothing explained: area and silhouette pixels.
+void countRows(const SilhouetteMask& mask, int y, int end, const RowSpan* spans, long& area,
+               long& silhouette) {
+  for (; y < end; ++y, ++spans) {
+    const int a = spans->x0, b = spans->x1;
+    if (a >= b) continue;
+    area += b - a;
+    silhouette += mask.row(y).count(a, b);
+  }
+}
+
+// The same with one explained footprint `e` active over all the rows (the common case: the
+// parent segment or the palm). `explained` gathers the silhouette pixels of the overlap. The
+// overlap usually shares an endpoint with the span, whose count is then reused.
+void countRowsMinusOne(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
+                       const Footprint& e, long& area, long& silhouette, long& explained) {
+  const RowSpan* es = e.spans + (y - e.y0);
+  for (; y < end; ++y, ++spans, ++es) {
+    const int a = spans->x0, b = spans->x1;
+    if (a >= b) continue;
+    const Row row = mask.row(y);
+    const int ca = row.before(a), cb = row.before(b);
+    area += b - a;
+    silhouette += cb - ca;
+    const int lo = std::max(a, static_cast<int>(es->x0));
+    const int hi = std::min(b, static_cast<int>(es->x1));
+    if (lo >= hi) continue;
+    explained += (hi == b ? cb : row.before(hi)) - (lo == a ? ca : row.before(lo));
+  }
+}
+
+// Two explained footprints (the next most common case), kept in registers.
+void countRowsMinusTwo(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
+                       const Footprint& e, const Footprint& g, long& area, long& silhouette,
+                       long& explained) {
+  const RowSpan* es = e.spans + (y - e.y0);
+  const RowSpan* gs = g.spans + (y - g.y0);
+  for (; y < end; ++y, ++spans, ++es, ++gs) {
+    const int a = spans->x0, b = spans->x1;
+    if (a >= b) continue;
+    const Row row = mask.row(y);
+    const int ca = row.before(a), cb = row.before(b);
+    area += b - a;
+    silhouette += cb - ca;
+    int lo0 = std::max(a, static_cast<int>(es->x0)), hi0 = std::min(b, static_cast<int>(es->x1));
+    int lo1 = std::max(a, static_cast<int>(gs->x0)), hi1 = std::min(b, static_cast<int>(gs->x1));
+    if (lo0 >= hi0) {  // only the second, if any
+      lo0 = lo1;
+      hi0 = hi1;
+    } else if (lo1 < hi1) {
+      if (lo1 < lo0) {
+        std::swap(lo0, lo1);
+        std::swap(hi0, hi1);
+      }
+      if (lo1 > hi0) {  // disjoint: count the first now, the second below
+        explained += (hi0 == b ? cb : row.before(hi0)) - (lo0 == a ? ca : row.before(lo0));
+        lo0 = lo1;
+      }
+      hi0 = std::max(hi0, hi1);
+    }
+    if (lo0 >= hi0) continue;
+    explained += (hi0 == b ? cb : row.before(hi0)) - (lo0 == a ? ca : row.before(lo0));
+  }
+}
+
+// Three or more explained footprints active over all the rows: per row, the parts of the span
+// they cover, whose union is counted once. They mostly overlap, so they are merged into one
+// interval as they come; only rows where some stay apart take the sort.
+void countRowsMinusMany(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
+                        const Footprint* const* active, int n_active, long& area, long& silhouette,
+                        long& explained) {
+  constexpr int kMax = 64;
+  const RowSpan* es[kMax];
+  for (int i = 0; i < n_active; ++i) es[i] = active[i]->spans + (y - active[i]->y0);
+  RowSpan cut[kMax + 1];
+  for (int r = 0; y < end; ++y, ++r) {
+    const int a = spans[r].x0, b = spans[r].x1;
+    if (a >= b) continue;
+    int u_lo = b, u_hi = b;  // the merged interval; empty while u_lo == b
+    int n_apart = 0;
+    for (int i = 0; i < n_active; ++i) {
+      const RowSpan e = es[i][r];
+      const int lo = std::max(a, static_cast<int>(e.x0));
+      const int hi = std::min(b, static_cast<int>(e.x1));
+      if (lo >= hi) continue;
+      if (u_lo == b) {
+        u_lo = lo;
+        u_hi = hi;
+      } else if (lo <= u_hi && hi >= u_lo) {  // overlapping or touching
+        u_lo = std::min(u_lo, lo);
+        u_hi = std::max(u_hi, hi);
+      } else {
+        cut[n_apart++] = {static_cast<int16_t>(lo), static_cast<int16_t>(hi)};
+      }
+    }
+    const Row row = mask.row(y);
+    const int ca = row.before(a), cb = row.before(b);
+    area += b - a;
+    silhouette += cb - ca;
+    if (u_lo == b) continue;
+    // Endpoints at the span's ends reuse its counts.
+    auto before = [&](int x) { return x == a ? ca : x == b ? cb : row.before(x); };
+    if (n_apart == 0) {
+      explained += before(u_hi) - before(u_lo);
+      continue;
+    }
+    // Sorted by start, then the union walked once.
+    cut[n_apart++] = {static_cast<int16_t>(u_lo), static_cast<int16_t>(u_hi)};
+    for (int i = 1; i < n_apart; ++i) {
+      const RowSpan c = cut[i];
+      int j = i;
+      for (; j > 0 && cut[j - 1].x0 > c.x0; --j) cut[j] = cut[j - 1];
+      cut[j] = c;
+    }
+    int covered_to = a;
+    for (int i = 0; i < n_apart; ++i) {
+      const int lo = std::max(covered_to, static_cast<int>(cut[i].x0));
+      const int hi = cut[i].x1;
+      if (hi > lo) {
+        explained += before(hi) - before(lo);
+        covered_to = hi;
+      }
+    }
+  }
+}
+
+}  // namespace
+
 PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprint,
                            const Footprint* explained, int explained_count) {
   PixelCounts counts;
   if (footprint.empty()) return counts;
   // Only explained footprints whose boxes touch this one matter (usually the parent and a
-  // neighbour). A sweep over the rows keeps the ones covering the current row active, so a row
-  // looks at two or three of them, not all.
+  // neighbour). The rows are walked in bands over which the set of explained footprints covering
+  // them does not change, so each band runs a loop specialised to that set's size (mostly 0 or 1).
   constexpr int kMaxOverlapping = 64;
   const Footprint* pending[kMaxOverlapping];
   int n_pending = 0;
@@ -25,49 +157,40 @@ PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprin
   }
   const Footprint* active[kMaxOverlapping];
   int n_active = 0, next_pending = 0;
-  RowSpan cut[kMaxOverlapping];
-  for (int y = footprint.y0; y < footprint.y1; ++y) {
+  long area = 0, silhouette = 0, already = 0;
+  for (int y = footprint.y0; y < footprint.y1;) {
     while (next_pending < n_pending && pending[next_pending]->y0 <= y)
       active[n_active++] = pending[next_pending++];
-    const RowSpan span = footprint.spans[y - footprint.y0];
-    const int a = span.x0, b = span.x1;
-    if (a >= b) continue;
-    const int in_silhouette = mask.count(y, a, b);
-    counts.area += b - a;
-    counts.outside += (b - a) - in_silhouette;
-    if (n_active == 0) {  // most rows: nothing explained here yet
-      counts.matched += in_silhouette;
-      continue;
-    }
-    // The explained parts of [a, b) in this row, sorted by start, then their union counted once.
-    int n_cut = 0;
+    int end = footprint.y1;
+    if (next_pending < n_pending) end = std::min(end, pending[next_pending]->y0);
     for (int i = 0; i < n_active;) {
-      const Footprint& e = *active[i];
-      if (y >= e.y1) {  // finished: drop it
+      if (active[i]->y1 <= y) {  // finished: drop it
         active[i] = active[--n_active];
         continue;
       }
+      end = std::min(end, active[i]->y1);
       ++i;
-      const RowSpan es = e.spans[y - e.y0];
-      const int lo = std::max(a, static_cast<int>(es.x0));
-      const int hi = std::min(b, static_cast<int>(es.x1));
-      if (lo >= hi) continue;
-      int j = n_cut++;
-      for (; j > 0 && cut[j - 1].x0 > lo; --j) cut[j] = cut[j - 1];
-      cut[j] = {static_cast<int16_t>(lo), static_cast<int16_t>(hi)};
     }
-    int already = 0;
-    int covered_to = a;
-    for (int i = 0; i < n_cut; ++i) {
-      const int lo = std::max(covered_to, static_cast<int>(cut[i].x0));
-      const int hi = cut[i].x1;
-      if (hi > lo) {
-        already += mask.count(y, lo, hi);
-        covered_to = hi;
-      }
+    const RowSpan* spans = footprint.spans + (y - footprint.y0);
+    if (n_active == 0) {
+      countRows(mask, y, end, spans, area, silhouette);
+      y = end;
+      continue;
     }
-    counts.matched += in_silhouette - already;
+    if (n_active == 1) {
+      countRowsMinusOne(mask, y, end, spans, *active[0], area, silhouette, already);
+      y = end;
+      continue;
+    }
+    if (n_active == 2)
+      countRowsMinusTwo(mask, y, end, spans, *active[0], *active[1], area, silhouette, already);
+    else
+      countRowsMinusMany(mask, y, end, spans, active, n_active, area, silhouette, already);
+    y = end;
   }
+  counts.area = area;
+  counts.outside = area - silhouette;
+  counts.matched = silhouette - already;
   return counts;
 }
 

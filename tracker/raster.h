@@ -54,9 +54,15 @@ class ShapeRasterizer {
  private:
   bool outline(const Shape& shape, const Eigen::Isometry3d& pose, const CameraModel& camera);
   Footprint scanConvexHull(const CameraModel& camera, RowSpan* buffer);
+  // The same, filling per-row arrays chain by chain: the fallback for hulls whose chains are not
+  // y-monotone after rounding.
+  Footprint scanChains(const CameraModel& camera, int y0, int y1, int top, int bottom,
+                       RowSpan* buffer);
+  static Footprint trim(RowSpan* buffer, int y0, int first, int last, int xmin, int xmax);
 
   std::vector<double> cos_, sin_;  // unit circle, area-matched radius folded in
-  std::vector<Eigen::Vector2d> projected_;
+  std::vector<Eigen::Vector2d> projected_;  // 2 points per circle point; the first count used
+  int projected_count_ = 0;
   std::vector<Eigen::Vector2d> hull_;
   std::vector<double> chain_x_[2];  // per row, the x of each hull chain
 };

@@ -1,7 +1,7 @@
 // Benchmarks of the tracker's hot path on the paper's hand setup (3 cameras at 780x580):
 // one factored-filter step of 375 particle evaluations, one Condensation step of 375 particles, and
 // one segment likelihood evaluation (rasterize one finger segment in 3 cameras and count it against
-// the masked silhouettes). Threads: the Arg.
+// the masked silhouettes), and that evaluation's two halves separately. Threads: the Arg.
 #include <benchmark/benchmark.h>
 
 #include "tracker/experiments/hand_experiment.h"
@@ -81,6 +81,54 @@ void BM_SegmentLikelihood(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_SegmentLikelihood)->Unit(benchmark::kNanosecond);
+
+// The two halves of BM_SegmentLikelihood: scan conversion of the phalanx in 3 cameras, and
+// counting its (fixed) footprints against the masked silhouettes.
+void BM_SegmentRasterize(benchmark::State& state) {
+  HandSetup& s = setup();
+  KinematicsData kin(s.model);
+  forwardKinematics(s.model, kin, s.motion[10]);
+  ShapeRasterizer rasterizer(LikelihoodParams().points_per_circle);
+  const int middle = s.model.segmentIndex("index_2");
+  std::vector<RowSpan> storage(580);
+  for (auto _ : state) {
+    for (const CameraModel& camera : s.rig) {
+      const Footprint f = rasterizer.rasterize(s.model.segments[middle].shape, kin.world[middle],
+                                               camera, storage.data());
+      benchmark::DoNotOptimize(f);
+    }
+  }
+}
+BENCHMARK(BM_SegmentRasterize)->Unit(benchmark::kNanosecond);
+
+void BM_SegmentCount(benchmark::State& state) {
+  HandSetup& s = setup();
+  KinematicsData kin(s.model);
+  forwardKinematics(s.model, kin, s.motion[10]);
+  ShapeRasterizer rasterizer(LikelihoodParams().points_per_circle);
+  const int palm = 0, proximal = s.model.segmentIndex("index_1");
+  const int middle = s.model.segmentIndex("index_2");
+  std::vector<std::vector<RowSpan>> storage(3 * s.rig.size(), std::vector<RowSpan>(580));
+  std::vector<std::vector<Footprint>> explained(s.rig.size());
+  std::vector<Footprint> footprints;
+  for (std::size_t c = 0; c < s.rig.size(); ++c) {
+    explained[c].push_back(rasterizer.rasterize(s.model.segments[palm].shape, kin.world[palm],
+                                                s.rig[c], storage[3 * c].data()));
+    explained[c].push_back(rasterizer.rasterize(s.model.segments[proximal].shape,
+                                                kin.world[proximal], s.rig[c],
+                                                storage[3 * c + 1].data()));
+    footprints.push_back(rasterizer.rasterize(s.model.segments[middle].shape, kin.world[middle],
+                                              s.rig[c], storage[3 * c + 2].data()));
+  }
+  for (auto _ : state) {
+    PixelCounts counts;
+    for (std::size_t c = 0; c < s.rig.size(); ++c)
+      counts += countFootprint(s.frames[10][c], footprints[c], explained[c].data(),
+                               static_cast<int>(explained[c].size()));
+    benchmark::DoNotOptimize(counts);
+  }
+}
+BENCHMARK(BM_SegmentCount)->Unit(benchmark::kNanosecond);
 
 }  // namespace
 }  // namespace mocap

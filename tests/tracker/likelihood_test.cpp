@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include <opencv2/core.hpp>
@@ -77,6 +78,61 @@ TEST(Likelihood, ChainCreditsEachSilhouettePixelAtMostOnceOverRandomFootprints) 
     cv::Mat covered;
     cv::bitwise_and(union_mask, image, covered);
     ASSERT_EQ(credited, cv::countNonZero(covered)) << "trial " << trial;
+  }
+}
+
+TEST(Likelihood, CountsMatchAPixelByPixelReferenceForOverlappingConvexFootprints) {
+  // Random row spans (empty rows included) under up to 7 explained footprints covering the same
+  // area, so every per-row case of the count (nothing, one, two and more explained) is exercised.
+  std::mt19937 rng(17);
+  cv::Mat image(90, 200, CV_8UC1);
+  cv::randu(image, 0, 2);
+  image *= 255;
+  const SilhouetteMask mask(image);
+  auto randomFootprint = [&](std::vector<RowSpan>& storage) {
+    const int y0 = std::uniform_int_distribution<int>(0, 60)(rng);
+    const int h = std::uniform_int_distribution<int>(1, 89 - y0)(rng);
+    storage.resize(h);
+    Footprint f{y0, y0 + h, 200, 0, storage.data()};
+    const int centre = std::uniform_int_distribution<int>(40, 160)(rng);
+    for (int r = 0; r < h; ++r) {
+      int x0 = std::clamp(centre - std::uniform_int_distribution<int>(-5, 40)(rng), 0, 200);
+      int x1 = std::clamp(centre + std::uniform_int_distribution<int>(-5, 40)(rng), 0, 200);
+      if (x1 < x0 || std::uniform_int_distribution<int>(0, 9)(rng) == 0) x1 = x0;  // empty row
+      storage[r] = {static_cast<int16_t>(x0), static_cast<int16_t>(x1)};
+      if (x1 > x0) {
+        f.xmin = std::min(f.xmin, x0);
+        f.xmax = std::max(f.xmax, x1);
+      }
+    }
+    if (f.xmin >= f.xmax) f.xmin = f.xmax = 0;
+    return f;
+  };
+  auto inside = [](const Footprint& f, int x, int y) {
+    return y >= f.y0 && y < f.y1 && x >= f.spans[y - f.y0].x0 && x < f.spans[y - f.y0].x1;
+  };
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = std::uniform_int_distribution<int>(0, 7)(rng);
+    std::vector<std::vector<RowSpan>> storage(n + 1);
+    std::vector<Footprint> explained;
+    for (int k = 0; k < n; ++k) explained.push_back(randomFootprint(storage[k]));
+    const Footprint f = randomFootprint(storage[n]);
+    PixelCounts expected;
+    for (int y = 0; y < image.rows; ++y) {
+      for (int x = 0; x < image.cols; ++x) {
+        if (!inside(f, x, y)) continue;
+        const bool on = image.at<uint8_t>(y, x) != 0;
+        bool before = false;
+        for (const Footprint& e : explained) before = before || inside(e, x, y);
+        ++expected.area;
+        expected.outside += !on;
+        expected.matched += on && !before;
+      }
+    }
+    const PixelCounts got = countFootprint(mask, f, explained.data(), n);
+    ASSERT_EQ(got.area, expected.area) << "trial " << trial;
+    ASSERT_EQ(got.outside, expected.outside) << "trial " << trial;
+    ASSERT_EQ(got.matched, expected.matched) << "trial " << trial;
   }
 }
 

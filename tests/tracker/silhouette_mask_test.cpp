@@ -47,5 +47,27 @@ TEST(SilhouetteMask, WordBoundariesAndFullRows) {
   EXPECT_EQ(mask.count(1, 1, 128), 127);
 }
 
+TEST(SilhouetteMask, RoundTripsImagesOfAnyWidth) {
+  // Widths around the 16-pixel steps and 64-pixel words of the packing, any non-zero value on.
+  std::mt19937 rng(9);
+  for (int width : {1, 15, 16, 17, 63, 64, 65, 127, 128, 129, 780, 781}) {
+    cv::Mat image(5, width, CV_8UC1);
+    cv::randu(image, 0, 4);  // 0 off; 1, 2, 3 on
+    const SilhouetteMask mask(image);
+    ASSERT_EQ(cv::countNonZero(mask.toMat() != (image != 0)), 0) << "width " << width;
+    ASSERT_EQ(mask.total(), cv::countNonZero(image)) << "width " << width;
+    for (int trial = 0; trial < 200; ++trial) {
+      const int y = std::uniform_int_distribution<int>(0, 4)(rng);
+      int a = std::uniform_int_distribution<int>(0, width)(rng);
+      int b = std::uniform_int_distribution<int>(0, width)(rng);
+      if (a > b) std::swap(a, b);
+      const SilhouetteMask::Row row = mask.row(y);
+      ASSERT_EQ(row.count(a, b), cv::countNonZero(image.row(y).colRange(a, b)))
+          << "width " << width;
+      ASSERT_EQ(row.before(b) - row.before(a), mask.count(y, a, b));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mocap
