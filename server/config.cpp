@@ -8,6 +8,8 @@
 #include <set>
 #include <sstream>
 
+#include <unistd.h>
+
 #include <yaml-cpp/yaml.h>
 
 namespace mocap {
@@ -160,7 +162,8 @@ class ConfigParser {
     config.source = source_;
     onlyKeys(root, "",
              {"cameras", "calibration", "body_model", "tracker", "sync", "listen",
-              "recording_directory", "tls", "auth", "log_level"});
+              "recording_directory", "background_directory", "silhouettes", "tls", "auth",
+              "log_level"});
 
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
@@ -224,6 +227,32 @@ class ConfigParser {
       if (!std::filesystem::is_directory(dir, error))
         fail(node, "recording_directory", "not an existing directory: " + dir.string());
       config.recording_directory = std::filesystem::canonical(dir, error).string();
+    }
+
+    if (root["background_directory"]) {
+      const YAML::Node node = root["background_directory"];
+      const std::filesystem::path dir = resolve(text(node, "background_directory"));
+      std::error_code error;
+      if (!std::filesystem::is_directory(dir, error))
+        fail(node, "background_directory", "not an existing directory: " + dir.string());
+      // Found now rather than when the first capture cannot be saved.
+      if (::access(dir.c_str(), W_OK | X_OK) != 0)
+        fail(node, "background_directory", "not writable by the daemon: " + dir.string());
+      config.background_directory = std::filesystem::canonical(dir, error).string();
+    }
+
+    if (root["silhouettes"]) {
+      const YAML::Node node = root["silhouettes"];
+      const std::string source = text(node, "silhouettes");
+      if (source == "extracted") {
+        config.true_silhouettes = false;
+      } else if (source == "ground_truth") {
+        for (const CameraConfig& camera : config.cameras)
+          if (camera.driver != "fake")
+            fail(node, "silhouettes", "ground_truth needs the fake scene: only it knows the truth");
+      } else {
+        fail(node, "silhouettes", "expected extracted or ground_truth, got '" + source + "'");
+      }
     }
 
     if (const YAML::Node tls = root["tls"]) {

@@ -46,6 +46,12 @@ struct ServerConfig {
   SyncSettings sync;
   std::string listen = "127.0.0.1:50051";
   std::string recording_directory;  // empty: recording is off
+  // Where CaptureBackground saves each camera's background and start-up loads it from; empty:
+  // backgrounds last until the daemon stops.
+  std::string background_directory;
+  // Fake scene only: hand the tracker the scene's true silhouettes (the demo measures tracking)
+  // instead of extracting them from the rendered images (false: YAML `silhouettes: extracted`).
+  bool true_silhouettes = true;
   std::string tls_cert_file;        // both or neither
   std::string tls_key_file;
   std::string bearer_token;         // empty: no token required

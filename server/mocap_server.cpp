@@ -115,10 +115,13 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
         camera.info = camera.camera->info();
         inputs.cameras.push_back(std::move(camera));
       }
-      // Until silhouette extraction is wired in, the tracker sees the scene's true silhouettes.
-      inputs.ground_truth = [shared](uint64_t sequence) {
-        return shared->groundTruth(sequence).silhouettes;
-      };
+      // The demo measures tracking: the tracker sees the scene's true silhouettes unless the
+      // configuration asks for them to be extracted from the rendered images.
+      if (config.true_silhouettes) {
+        inputs.ground_truth = [shared](uint64_t sequence) {
+          return shared->groundTruth(sequence).silhouettes;
+        };
+      }
       inputs.reference_pose = [shared](uint64_t sequence) { return shared->groundTruth(sequence).q; };
       // The subject's starting pose, as a real session would give it by a start-up pose.
       inputs.initial_pose = shared->groundTruth(0).q;

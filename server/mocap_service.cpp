@@ -60,6 +60,7 @@ grpc::Status backgroundStatus(const BackgroundResult& result) {
     case BackgroundError::kStopped:
       return grpc::Status(grpc::StatusCode::UNAVAILABLE, result.message);
     case BackgroundError::kUnusable:
+    case BackgroundError::kNotSaved:
       return grpc::Status(grpc::StatusCode::INTERNAL, result.message);
   }
   return grpc::Status(grpc::StatusCode::UNKNOWN, result.message);

@@ -2,6 +2,8 @@
 #include "server/pipeline.h"
 
 #include <chrono>
+#include <filesystem>
+#include <set>
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
@@ -17,6 +19,20 @@ constexpr auto kPollInterval = std::chrono::milliseconds(100);
 // A background capture gives up when no camera contributed a frame for this long: a stalled camera
 // must not hold the RPC forever.
 constexpr int64_t kCaptureStallNs = 3'000'000'000;
+
+constexpr const char* kBackgroundSuffix = ".background.yml";
+
+// A camera id as a file name: nothing that could leave the directory or hide the file.
+std::string fileNamePart(const std::string& text) {
+  std::string name;
+  for (char ch : text) {
+    const bool plain = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') ||
+                       (ch >= '0' && ch <= '9') || ch == '.' || ch == '_' || ch == '-';
+    name += plain ? ch : '_';
+  }
+  if (!name.empty() && name.front() == '.') name.front() = '_';
+  return name;
+}
 
 FilterOptions filterOptions(const TrackerSettings& settings) {
   FilterOptions options;
@@ -62,7 +78,8 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   }
   camera_cv_types_.assign(cameras_.size(), -1);
   extractors_.resize(cameras_.size());
-  extraction_warned_.assign(cameras_.size(), false);
+  silhouette_sources_.assign(cameras_.size(), ground_truth_ ? "ground truth" : "threshold");
+  if (!config_.background_directory.empty() && !replay_) loadBackgrounds();
 
   SyncConfig sync;
   sync.camera_count = static_cast<int>(cameras_.size());
@@ -84,10 +101,95 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
                      : model_.neutralPose());
 }
 
-Pipeline::~Pipeline() { stop(); }
+Pipeline::~Pipeline() {
+  stop();
+  if (save_thread_.joinable()) save_thread_.join();  // stop() returns early if never started
+}
 
 void Pipeline::setPoseObserver(std::function<void(const Pose&)> observer) {
   observer_ = std::move(observer);
+}
+
+void Pipeline::setMaskObserver(MaskObserver observer) { mask_observer_ = std::move(observer); }
+
+std::string Pipeline::backgroundFile(std::size_t camera) const {
+  if (config_.background_directory.empty() || camera >= cameras_.size()) return "";
+  const OpenedCamera& opened = cameras_[camera];
+  const std::string id =
+      opened.info.id.empty() ? "camera" + std::to_string(camera) : opened.info.id;
+  const std::string driver = opened.info.driver.empty() ? opened.config.driver : opened.info.driver;
+  return (std::filesystem::path(config_.background_directory) /
+          (fileNamePart(driver + "-" + id) + kBackgroundSuffix))
+      .string();
+}
+
+void Pipeline::setSilhouetteSource(std::size_t camera, std::string source) {
+  std::lock_guard lock(silhouette_mutex_);
+  silhouette_sources_[camera] = std::move(source);
+}
+
+void Pipeline::warnBackground(const std::string& warning) {
+  logWarning() << warning;
+  std::lock_guard lock(silhouette_mutex_);
+  background_warnings_.push_back(warning);
+}
+
+void Pipeline::loadBackgrounds() {
+  std::set<std::string> expected;
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    const std::string path = backgroundFile(c);
+    if (!expected.insert(std::filesystem::path(path).filename().string()).second)
+      throw std::invalid_argument("cameras[" + std::to_string(c) + "] (" + cameras_[c].info.id +
+                                  ") would share its background file " + path +
+                                  " with another camera");
+  }
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    const std::string path = backgroundFile(c);
+    std::error_code error;
+    if (!std::filesystem::exists(path, error)) continue;
+    const std::string fallback = "; cameras[" + std::to_string(c) +
+                                 "] is thresholded until the next CaptureBackground";
+    BackgroundModel model;
+    try {
+      model = loadBackground(path);
+    } catch (const std::exception& e) {
+      warnBackground("background file unusable: " + std::string(e.what()) + fallback);
+      if (!ground_truth_) setSilhouetteSource(c, "threshold (" + path + " unusable)");
+      continue;
+    }
+    const CameraConfig& camera = cameras_[c].config;
+    const int channels = camera.pixel_format == "GREY" ? 1 : model.channels();
+    if (model.size() != cv::Size(camera.width, camera.height) || model.channels() != channels) {
+      warnBackground("background file unusable: " + path + ": it is " +
+                     std::to_string(model.size().width) + "x" +
+                     std::to_string(model.size().height) + " with " +
+                     std::to_string(model.channels()) + " channel(s) but cameras[" +
+                     std::to_string(c) + "] is " + std::to_string(camera.width) + "x" +
+                     std::to_string(camera.height) +
+                     (camera.pixel_format == "GREY" ? " gray" : "") + fallback);
+      if (!ground_truth_)
+        setSilhouetteSource(c, "threshold (" + path + " does not fit this camera)");
+      continue;
+    }
+    extractors_[c] = std::make_unique<SilhouetteExtractor>(std::move(model));
+    logInfo() << "cameras[" << c << "]: background loaded from " << path;
+    if (!ground_truth_) setSilhouetteSource(c, "background loaded from " + path);
+  }
+  // A file no camera claims is most likely a camera since removed or renamed: said, not deleted.
+  std::error_code error;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(config_.background_directory, error)) {
+    const std::string name = entry.path().filename().string();
+    const std::string suffix = kBackgroundSuffix;
+    if (name.size() <= suffix.size() || name.front() == '.' ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0 ||
+        expected.count(name))
+      continue;
+    std::string known;
+    for (const std::string& file : expected) known += (known.empty() ? "" : ", ") + file;
+    warnBackground("background file ignored: " + entry.path().string() +
+                   ": no configured camera saves to it (the cameras' files are " + known + ")");
+  }
 }
 
 Status Pipeline::start() {
@@ -138,6 +240,7 @@ void Pipeline::stop() {
   if (mask_thread_.joinable()) mask_thread_.join();
   if (tracker_thread_.joinable()) tracker_thread_.join();
   if (publisher_thread_.joinable()) publisher_thread_.join();
+  if (save_thread_.joinable()) save_thread_.join();
   stopRecording();
 }
 
@@ -197,12 +300,13 @@ void Pipeline::learnBackground(BackgroundCapture& capture, std::size_t camera,
   if (learner.add(image)) capture.last_progress_ns = monotonicNowNs();
 }
 
-void Pipeline::endCapture(BackgroundCapture& capture, const BackgroundResult& result) {
+void Pipeline::endCapture(const std::function<void(const BackgroundResult&)>& done,
+                          const BackgroundResult& result) {
   {
     std::lock_guard lock(capture_mutex_);
     capture_busy_ = false;
   }
-  capture.done(result);
+  done(result);
 }
 
 bool Pipeline::finishBackground(BackgroundCapture& capture) {
@@ -216,26 +320,62 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
       counts += (c ? ", " : "") + std::string("camera ") + std::to_string(c) + ": " +
                 std::to_string(capture.learners[c].frames());
     }
-    endCapture(capture, {BackgroundError::kStalled,
-                         "no usable frame for " + std::to_string(kCaptureStallNs / 1'000'000'000) +
-                             " s; frames learned of " + std::to_string(capture.frames) + " (" +
-                             counts + ")",
-                         0});
+    endCapture(capture.done,
+               {BackgroundError::kStalled,
+                "no usable frame for " + std::to_string(kCaptureStallNs / 1'000'000'000) +
+                    " s; frames learned of " + std::to_string(capture.frames) + " (" + counts + ")",
+                0});
     return true;
   }
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors;
+  std::vector<BackgroundModel> models;
   try {
-    for (const BackgroundLearner& learner : capture.learners)
-      extractors.push_back(std::make_unique<SilhouetteExtractor>(learner.model()));
+    for (const BackgroundLearner& learner : capture.learners) {
+      const BackgroundModel model = learner.model();
+      // The extractor adapts its copy while the saver thread writes this one.
+      models.push_back({model.mean.clone(), model.stddev.clone()});
+      extractors.push_back(std::make_unique<SilhouetteExtractor>(model));
+    }
   } catch (const std::exception& error) {
-    endCapture(capture, {BackgroundError::kUnusable, error.what(), 0});
+    endCapture(capture.done, {BackgroundError::kUnusable, error.what(), 0});
     return true;
   }
   extractors_ = std::move(extractors);
-  extraction_warned_.assign(cameras_.size(), false);
+  for (std::size_t c = 0; c < cameras_.size(); ++c)
+    if (!ground_truth_) setSilhouetteSource(c, "background captured");
   logInfo() << "background learned from " << capture.frames << " frames per camera";
-  endCapture(capture, {BackgroundError::kNone, "", capture.frames});
+  if (config_.background_directory.empty()) {
+    endCapture(capture.done, {BackgroundError::kNone, "", capture.frames});
+    return true;
+  }
+  // The previous saver ended its capture before this one could start: it is finishing or done.
+  if (save_thread_.joinable()) save_thread_.join();
+  save_thread_ = std::thread([this, models = std::move(models), frames = capture.frames,
+                              done = std::move(capture.done)]() mutable {
+    saveBackgrounds(std::move(models), frames, std::move(done));
+  });
   return true;
+}
+
+void Pipeline::saveBackgrounds(std::vector<BackgroundModel> models, int frames,
+                               std::function<void(const BackgroundResult&)> done) {
+  std::string failures;
+  for (std::size_t c = 0; c < models.size(); ++c) {
+    try {
+      saveBackground(backgroundFile(c), models[c]);
+    } catch (const std::exception& e) {
+      failures += (failures.empty() ? "" : "; ") + std::string(e.what());
+    }
+  }
+  if (!failures.empty()) {
+    endCapture(done, {BackgroundError::kNotSaved,
+                      "the background is learned and in use but a restart will not have it: " +
+                          failures,
+                      frames});
+    return;
+  }
+  logInfo() << "backgrounds saved in " << config_.background_directory;
+  endCapture(done, {BackgroundError::kNone, "", frames});
 }
 
 void Pipeline::maskLoop() {
@@ -291,17 +431,18 @@ void Pipeline::maskLoop() {
         if (c < truth.size()) latest[c] = SilhouetteMask(truth[c]);
         continue;
       }
-      if (!extractors_[c]) {
-        latest[c] = thresholdMask(image);
-      } else if (extractors_[c]->extract(image)) {
-        latest[c] = extractors_[c]->silhouette();
-      } else if (!extraction_warned_[c]) {
-        // Keeps the previous silhouette, like a missing frame.
+      if (extractors_[c] && !extractors_[c]->extract(image)) {
+        // A background of another format (the camera's pixel format changed since it was saved):
+        // thresholding beats silhouettes frozen at the last good frame.
         logWarning() << "camera " << c << ": silhouette extraction failed: "
-                     << extractors_[c]->lastError();
-        extraction_warned_[c] = true;
+                     << extractors_[c]->lastError() << "; thresholded until the next capture";
+        setSilhouetteSource(c,
+                            "threshold (background unusable: " + extractors_[c]->lastError() + ")");
+        extractors_[c].reset();
       }
+      latest[c] = extractors_[c] ? extractors_[c]->silhouette() : thresholdMask(image);
     }
+    if (mask_observer_) mask_observer_(*set, latest);
     masks.masks = latest;
     masks_.push(std::move(masks));
   }
@@ -312,7 +453,7 @@ void Pipeline::maskLoop() {
     pending = std::move(capture_request_);
   }
   if (!capture) capture = std::move(pending);
-  if (capture) endCapture(*capture, {BackgroundError::kStopped, "the pipeline stopped", 0});
+  if (capture) endCapture(capture->done, {BackgroundError::kStopped, "the pipeline stopped", 0});
   masks_.close();
 }
 
@@ -468,6 +609,12 @@ PipelineStatus Pipeline::status() const {
     camera.streaming = since >= 0 && since <= RateMeter::kWindowNs;
     if (c < sync.cameras.size()) camera.sync = sync.cameras[c];
     status.cameras.push_back(camera);
+  }
+  {
+    std::lock_guard lock(silhouette_mutex_);
+    for (std::size_t c = 0; c < cameras_.size(); ++c)
+      status.cameras[c].silhouettes = silhouette_sources_[c];
+    status.background_warnings = background_warnings_;
   }
   status.tracker_fps = tracker_rate_.rate(now);
   status.poses_published = poses_published_;

@@ -69,6 +69,9 @@ struct CameraRuntimeStatus {
   double measured_fps = 0;
   bool streaming = false;  // a frame arrived within the last two seconds
   CameraSyncStats sync;
+  // Where its silhouettes come from: "ground truth", "threshold" (with the reason when a saved
+  // background was refused), "background captured" or "background loaded from <file>".
+  std::string silhouettes;
 };
 
 struct RecordingStatus {
@@ -87,6 +90,8 @@ struct PipelineStatus {
   double evaluations_per_frame = 0;
   LatencySummary latency;
   RecordingStatus recording;
+  // Saved backgrounds refused or ignored at start-up, one line each naming the file (also logged).
+  std::vector<std::string> background_warnings;
 };
 
 // Why a recording request failed, so the service can pick the gRPC code.
@@ -98,7 +103,8 @@ struct RecordingResult {
 };
 
 // Why a background capture failed, so the service can pick the gRPC code.
-enum class BackgroundError { kNone, kReplay, kBusy, kStalled, kStopped, kUnusable };
+// kNotSaved: learned and in use, but a file of background_directory could not be written.
+enum class BackgroundError { kNone, kReplay, kBusy, kStalled, kStopped, kUnusable, kNotSaved };
 struct BackgroundResult {
   BackgroundError error = BackgroundError::kNone;
   std::string message;
@@ -116,6 +122,11 @@ class Pipeline {
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
 
+  // With a background_directory (live only), each camera's saved background is loaded here: a file
+  // that cannot be used is a warning (see PipelineStatus::background_warnings) and that camera is
+  // thresholded until the next capture. Throws std::invalid_argument if two cameras would share a
+  // background file.
+  //
   // Starts the stage threads, then the cameras (or the replay). An error names the camera that
   // failed.
   Status start();
@@ -127,6 +138,11 @@ class Pipeline {
   // Called on the publisher thread with every published pose, before the subscribers get it.
   // Set before start().
   void setPoseObserver(std::function<void(const Pose&)> observer);
+  // Called on the mask thread with every frame set and the silhouettes handed to the tracker for
+  // it (a camera with no frame in the set repeats its previous one). Must be quick. Set before
+  // start().
+  using MaskObserver = std::function<void(const FrameSet&, const std::vector<SilhouetteMask>&)>;
+  void setMaskObserver(MaskObserver observer);
 
   RecordingResult startRecording(const std::string& relative_path);
   RecordingResult stopRecording();
@@ -134,11 +150,16 @@ class Pipeline {
   // Has the mask thread learn the empty scene from the next `frames` frames of every camera, then
   // extract silhouettes against it. `done` is called once: at once on a refusal, else on the mask
   // thread when the backgrounds are installed, when no usable frame came for a while, or when the
-  // pipeline stops. It must not block.
+  // pipeline stops; with a background_directory, on a saver thread once the files are written
+  // (the mask thread never waits on the disk). It must not block.
   void captureBackground(int frames, std::function<void(const BackgroundResult&)> done);
 
   PipelineStatus status() const;
   const std::vector<OpenedCamera>& cameras() const { return cameras_; }
+  // The file camera `camera`'s background is saved to and loaded from: "<driver>-<camera id>" with
+  // characters other than letters, digits, '.', '_' and '-' replaced by '_', then
+  // ".background.yml", in the background directory. Empty without one.
+  std::string backgroundFile(std::size_t camera) const;
 
  private:
   struct MaskSet {
@@ -165,7 +186,15 @@ class Pipeline {
   // Mask thread: installs the extractors once every camera has its frames, or gives up when none
   // came for too long. True when the capture is over (its `done` called).
   bool finishBackground(BackgroundCapture& capture);
-  void endCapture(BackgroundCapture& capture, const BackgroundResult& result);
+  void endCapture(const std::function<void(const BackgroundResult&)>& done,
+                  const BackgroundResult& result);
+  // Constructor: loads what background_directory holds for each camera.
+  void loadBackgrounds();
+  // Saver thread: writes the captured models, then ends the capture.
+  void saveBackgrounds(std::vector<BackgroundModel> models, int frames,
+                       std::function<void(const BackgroundResult&)> done);
+  void setSilhouetteSource(std::size_t camera, std::string source);
+  void warnBackground(const std::string& warning);
   RecordingStatus recordingStatusLocked() const;
 
   const ServerConfig config_;
@@ -180,6 +209,7 @@ class Pipeline {
   Handoff<MaskSet> masks_;
   Handoff<std::shared_ptr<Pose>> poses_;
   std::function<void(const Pose&)> observer_;
+  MaskObserver mask_observer_;
 
   // Tracker thread only, after construction.
   std::unique_ptr<WorkerPool> pool_;
@@ -208,7 +238,12 @@ class Pipeline {
   bool accepting_captures_ = false;  // while the mask thread runs
   // Mask thread only: per camera, null until a background is captured.
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;
-  std::vector<bool> extraction_warned_;
+  // Saves a capture's backgrounds; joined before the next one starts and by stop().
+  std::thread save_thread_;
+  // Read by status(): where each camera's silhouettes come from, and the start-up warnings.
+  mutable std::mutex silhouette_mutex_;
+  std::vector<std::string> silhouette_sources_;
+  std::vector<std::string> background_warnings_;
 
   std::atomic<bool> running_{false};
   std::atomic<bool> input_closed_{false};

@@ -2,6 +2,8 @@
 // reason.
 #include "server/config.h"
 
+#include <filesystem>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -53,6 +55,23 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
   EXPECT_THAT(errorOf(cameras + "tls: {cert: /no/cert.pem}\n"),
               HasSubstr("tls: needs both 'cert' and 'key'"));
   EXPECT_THAT(errorOf("cameras: [\n"), HasSubstr("test.yaml:"));
+  EXPECT_THAT(errorOf(cameras + "background_directory: /no/such/dir\n"),
+              HasSubstr("test.yaml:3: background_directory: not an existing directory"));
+  EXPECT_THAT(errorOf(cameras + "silhouettes: guessed\n"),
+              HasSubstr("test.yaml:3: silhouettes: expected extracted or ground_truth"));
+}
+
+TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  EXPECT_TRUE(parseConfig(cameras, "test.yaml", ".").true_silhouettes);
+  EXPECT_TRUE(
+      parseConfig(cameras + "silhouettes: ground_truth\n", "test.yaml", ".").true_silhouettes);
+  // Relative to the configuration's directory, like every path in it.
+  const std::filesystem::path base = std::filesystem::temp_directory_path();
+  const ServerConfig extracted = parseConfig(
+      cameras + "silhouettes: extracted\nbackground_directory: .\n", "test.yaml", base.string());
+  EXPECT_FALSE(extracted.true_silhouettes);
+  EXPECT_EQ(extracted.background_directory, std::filesystem::canonical(base).string());
 }
 
 }  // namespace

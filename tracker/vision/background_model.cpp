@@ -1,7 +1,13 @@
 // Background learning by running sums, and its FileStorage I/O.
 #include "tracker/vision/background_model.h"
 
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <stdexcept>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <opencv2/core.hpp>
 
@@ -55,8 +61,10 @@ BackgroundModel learnBackground(const std::vector<cv::Mat>& frames) {
   return learner.model();
 }
 
-void saveBackground(const std::string& path, const BackgroundModel& model) {
-  if (model.empty()) throw std::runtime_error(path + ": background model is empty");
+namespace {
+
+// Writes the model to `path` with FileStorage; throws naming `path`.
+void writeModel(const std::string& path, const BackgroundModel& model) {
   cv::FileStorage fs;
   try {
     fs.open(path, cv::FileStorage::WRITE | cv::FileStorage::BASE64);
@@ -67,6 +75,51 @@ void saveBackground(const std::string& path, const BackgroundModel& model) {
   fs << "image_width" << model.mean.cols << "image_height" << model.mean.rows;
   fs << "channels" << model.channels();
   fs << "mean" << model.mean << "stddev" << model.stddev;
+  fs.release();
+}
+
+// Flushes a file (or a directory's entries) to the disk; false on an error.
+bool syncToDisk(const std::string& path, int flags) {
+  const int fd = ::open(path.c_str(), flags | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool synced = ::fsync(fd) == 0;
+  return ::close(fd) == 0 && synced;
+}
+
+}  // namespace
+
+void saveBackground(const std::string& path, const BackgroundModel& model) {
+  if (model.empty()) throw std::runtime_error(path + ": background model is empty");
+  // Written beside the target under a hidden name with the same extension (FileStorage picks the
+  // format and compression from it), then renamed over it: a crash or a full disk never leaves a
+  // half-written model where the daemon loads it.
+  const std::filesystem::path target(path);
+  const std::filesystem::path temporary =
+      target.parent_path() /
+      (".tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
+  std::error_code ignored;
+  try {
+    writeModel(temporary.string(), model);
+    // FileStorage does not report failed writes: reading the file back catches a truncated one.
+    const BackgroundModel written = loadBackground(temporary.string());
+    if (written.size() != model.size() || written.channels() != model.channels())
+      throw std::runtime_error("reads back with another size");
+    if (!syncToDisk(temporary.string(), O_RDONLY))
+      throw std::runtime_error(std::string("cannot flush to disk: ") + std::strerror(errno));
+  } catch (const std::exception& e) {
+    std::filesystem::remove(temporary, ignored);
+    throw std::runtime_error(path + ": background model not saved: " + e.what());
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, target, error);
+  if (error) {
+    std::filesystem::remove(temporary, ignored);
+    throw std::runtime_error(path + ": background model not saved: cannot rename " +
+                             temporary.string() + ": " + error.message());
+  }
+  // The rename itself survives a power loss only once the directory is flushed.
+  syncToDisk(target.parent_path().empty() ? "." : target.parent_path().string(),
+             O_RDONLY | O_DIRECTORY);
 }
 
 namespace {

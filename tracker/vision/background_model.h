@@ -38,7 +38,8 @@ class BackgroundLearner {
 BackgroundModel learnBackground(const std::vector<cv::Mat>& frames);
 
 // OpenCV FileStorage (YAML or XML by extension, ".gz" appended compresses), matrices in base64.
-// saveBackground throws std::runtime_error naming the file; loadBackground throws
+// saveBackground replaces `path` atomically (a hidden temporary file in the same directory, read
+// back, flushed, then renamed) and throws std::runtime_error naming the file; loadBackground throws
 // std::runtime_error naming the file and the field at fault.
 void saveBackground(const std::string& path, const BackgroundModel& model);
 BackgroundModel loadBackground(const std::string& path);

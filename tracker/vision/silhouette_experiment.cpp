@@ -87,7 +87,8 @@ nlohmann::json runSilhouetteExperiment(const SilhouetteExperimentConfig& config)
 
 int runSilhouetteCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
-                  {"seed", "frames", "width", "height", "learn", "threshold", "dump"},
+                  {"seed", "frames", "width", "height", "learn", "threshold", "texture-sigmas",
+                   "texture-contrast", "dump"},
                   {"gray", "no-shadows", "no-adaptive"});
   SilhouetteExperimentConfig config;
   config.seed = static_cast<uint64_t>(args.integer("seed", 1, 0, 1L << 40));
@@ -99,6 +100,10 @@ int runSilhouetteCommand(int argc, char** argv) {
   config.dump_dir = args.text("dump", "");
   config.options.threshold_sigmas =
       static_cast<float>(args.real("threshold", config.options.threshold_sigmas, 0.5, 50));
+  config.options.shadow_texture_sigmas = static_cast<float>(
+      args.real("texture-sigmas", config.options.shadow_texture_sigmas, 0.1, 50));
+  config.options.shadow_texture_contrast = static_cast<float>(
+      args.real("texture-contrast", config.options.shadow_texture_contrast, 0, 1000));
   config.options.suppress_shadows = !args.has("no-shadows");
   config.options.adaptive = !args.has("no-adaptive");
   std::cout << runSilhouetteExperiment(config).dump(2) << std::endl;

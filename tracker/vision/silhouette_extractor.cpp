@@ -1,5 +1,6 @@
 // Silhouette extraction: gain estimate, per-channel range test (vectorized by OpenCV), shadow test
-// on the changed pixels only, morphology, contour-based blob and hole cleanup, slow adaptation.
+// on the changed pixels only (gray: then joined to textured shadows by connectivity), morphology,
+// contour-based blob and hole cleanup, slow adaptation.
 #include "tracker/vision/silhouette_extractor.h"
 
 #include <algorithm>
@@ -18,6 +19,8 @@ void checkOptions(const SilhouetteOptions& o) {
     if (!ok) throw std::invalid_argument(std::string("silhouette options: ") + what);
   };
   require(o.threshold_sigmas > 0 && o.min_difference >= 0, "thresholds must be positive");
+  require(o.shadow_texture_sigmas > 0 && o.shadow_texture_contrast >= 0,
+          "shadow_texture_sigmas must be > 0 and shadow_texture_contrast >= 0");
   require(o.shadow_min_ratio > 0 && o.shadow_min_ratio < o.shadow_max_ratio &&
               o.shadow_max_ratio <= 1,
           "shadow ratio band must satisfy 0 < min < max <= 1");
@@ -73,6 +76,26 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
   cv::Mat flat = stddev.clone().reshape(1, stddev.rows * stddev.cols);  // a region is not continuous
   cv::reduce(flat, pixel_sigma_, 1, cv::REDUCE_AVG);
   pixel_sigma_ = cv::max(pixel_sigma_.reshape(1, stddev.rows), 1.0f);  // floor: quantization
+  if (channels == 1) {
+    // Gray shadow test: how far the background's texture stands out of the noise over each 5x5
+    // patch once a plane is removed (a shadow scales that texture; a flat patch cannot show it).
+    // Learned once: adaptation follows slow light changes, which barely change the texture.
+    const cv::Mat mean = background_.mean(roi_);
+    const cv::Mat ones = cv::Mat::ones(5, 1, CV_32F);
+    const cv::Mat ramp = (cv::Mat_<float>(5, 1) << -2, -1, 0, 1, 2);
+    cv::Mat sum, sum_sq, sum_x, sum_y, noise;
+    cv::boxFilter(mean, sum, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+    cv::sqrBoxFilter(mean, sum_sq, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+    cv::sepFilter2D(mean, sum_x, CV_32F, ramp, ones);
+    cv::sepFilter2D(mean, sum_y, CV_32F, ones, ramp);
+    cv::sqrBoxFilter(pixel_sigma_, noise, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+    texture_ = sum_sq - sum.mul(sum) / 25.0f - (sum_x.mul(sum_x) + sum_y.mul(sum_y)) / 50.0f;
+    cv::divide(cv::max(texture_, 0.0f), noise, texture_);
+    weak_shadow_.create(stddev.size(), CV_8UC1);
+    weak_shadow_.setTo(0);
+    shadow_labels_.create(stddev.size(), CV_32SC1);
+    shadow_union_.create(stddev.size(), CV_8UC1);
+  }
 
   const cv::Size size = roi_.size();
   lower_.create(size, CV_8UC(channels));
@@ -97,6 +120,15 @@ void SilhouetteExtractor::rebuildBounds() {
   bound_scratch_.convertTo(lower_, CV_8U);
   cv::add(mean, margin_, bound_scratch_);
   bound_scratch_.convertTo(upper_, CV_8U);
+  if (background_.channels() == 1) {
+    // Gray shadow test: 1 / background, and the noise of the ratio frame/background summed over
+    // each 5x5 patch (unnormalized box filter), (sigma / background)^2 per pixel.
+    cv::add(mean, 1.0f, bound_scratch_);  // never divides by zero
+    cv::divide(1.0f, bound_scratch_, inverse_mean_);
+    cv::multiply(pixel_sigma_, inverse_mean_, bound_scratch_);
+    cv::multiply(bound_scratch_, bound_scratch_, bound_scratch_);
+    cv::boxFilter(bound_scratch_, ratio_noise_, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+  }
 }
 
 void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
@@ -164,10 +196,14 @@ void SilhouetteExtractor::classifyColor() {
 void SilhouetteExtractor::classifyGray() {
   const cv::Mat mean = background_.mean(roi_);
   const SilhouetteOptions& o = options_;
+  const float noise_scale = o.shadow_texture_sigmas * o.shadow_texture_sigmas;
   const int last_row = mean.rows - 1, last_col = mean.cols - 1;
+  cv::Point box_min(mean.cols, mean.rows), box_max(-1, -1);  // of the weak shadows
   for (int y = 0; y < mean.rows; ++y) {
     const uint8_t* same = unchanged_.ptr<uint8_t>(y);
-    const float* sigma = pixel_sigma_.ptr<float>(y);
+    const float* noise_energy = ratio_noise_.ptr<float>(y);
+    const float* texture = texture_.ptr<float>(y);
+    uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
     uint8_t* candidate = candidates_.ptr<uint8_t>(y);
     uint8_t* shadow = shadow_.ptr<uint8_t>(y);
     for (int x = 0; x < mean.cols; ++x) {
@@ -176,37 +212,77 @@ void SilhouetteExtractor::classifyGray() {
         continue;
       }
       bool is_shadow = false;
-      const float centre_ratio = normalized_.ptr<uint8_t>(y)[x] / (mean.ptr<float>(y)[x] + 1.0f);
+      const float centre_ratio = normalized_.ptr<uint8_t>(y)[x] * inverse_mean_.ptr<float>(y)[x];
       if (o.suppress_shadows && y > 1 && y < last_row - 1 && x > 1 && x < last_col - 1 &&
           centre_ratio >= o.shadow_min_ratio && centre_ratio <= o.shadow_max_ratio) {
-        // A shadow scales the background's texture. Over the 5x5 patch, fit I - mean(I) =
-        // ratio * (mu - mean(mu)): accept only if the fit leaves noise and the scaled texture is
-        // clearly above the noise (a flat patch cannot tell a shadow from a dark object).
-        float sum_i = 0, sum_m = 0, sum_im = 0, sum_mm = 0, sum_ii = 0;
+        // A shadow scales the background by a factor that varies smoothly (a soft edge is a ramp),
+        // so over the 5x5 patch the ratio frame/background fits a plane up to the noise. A person
+        // brings their own shading, stripes and edges and ignores the background's texture: the
+        // plane leaves more than the learned noise (flat on flat stays ambiguous).
+        float sum = 0, sum_sq = 0, sum_x = 0, sum_y = 0;
         for (int dy = -2; dy <= 2; ++dy) {
           const uint8_t* in = normalized_.ptr<uint8_t>(y + dy) + x;
-          const float* mu = mean.ptr<float>(y + dy) + x;
+          const float* inverse = inverse_mean_.ptr<float>(y + dy) + x;
+          float row = 0;
           for (int dx = -2; dx <= 2; ++dx) {
-            const float i = in[dx], m = mu[dx];
-            sum_i += i;
-            sum_m += m;
-            sum_im += i * m;
-            sum_mm += m * m;
-            sum_ii += i * i;
+            const float q = in[dx] * inverse[dx];
+            row += q;
+            sum_sq += q * q;
+            sum_x += q * static_cast<float>(dx);
+          }
+          sum += row;
+          sum_y += row * static_cast<float>(dy);
+        }
+        // Least-squares plane over the symmetric 5x5 grid: sum(dx^2) = sum(dy^2) = 50.
+        const float ratio = sum / 25.0f;
+        const float residual = sum_sq - sum * ratio - (sum_x * sum_x + sum_y * sum_y) / 50.0f;
+        if (ratio >= o.shadow_min_ratio && ratio <= o.shadow_max_ratio &&
+            residual <= noise_scale * noise_energy[x]) {
+          if (ratio * ratio * texture[x] >= o.shadow_texture_contrast) {
+            is_shadow = true;
+          } else {
+            weak[x] = 255;  // decided below by what it is connected to
+            box_min = cv::Point(std::min(box_min.x, x), std::min(box_min.y, y));
+            box_max = cv::Point(std::max(box_max.x, x), std::max(box_max.y, y));
+            continue;
           }
         }
-        constexpr float n = 25;
-        const float cov = sum_im - sum_i * sum_m / n;
-        const float var_m = sum_mm - sum_m * sum_m / n + 1e-3f;
-        const float var_i = sum_ii - sum_i * sum_i / n;
-        const float slope = cov / var_m;
-        const float explained = slope * cov;
-        const float residual = var_i - explained;
-        const float noise = o.shadow_texture_sigmas * sigma[x];
-        is_shadow = slope >= o.shadow_min_ratio && slope <= o.shadow_max_ratio &&
-                    residual <= n * noise * noise && explained >= 2 * residual;
       }
       (is_shadow ? shadow : candidate)[x] = 255;
+    }
+  }
+  if (box_max.x >= box_min.x) resolveWeakShadows(cv::Rect(box_min, box_max + cv::Point(1, 1)));
+}
+
+void SilhouetteExtractor::resolveWeakShadows(cv::Rect box) {
+  // A smooth dark patch over a flat background fits a scaled background as well as a shadow does.
+  // It is a shadow if it joins a shadow that showed the background's texture, else part of the
+  // person (a person's smooth clothing is ringed by edges that fail the fit). A confident pixel
+  // next to a weak one lies at most one pixel outside the weak pixels' box: the widened box holds
+  // every connection that decides.
+  box = cv::Rect(box.x - 1, box.y - 1, box.width + 2, box.height + 2) &
+        cv::Rect(cv::Point(0, 0), weak_shadow_.size());
+  cv::Mat weak = weak_shadow_(box), confident = shadow_(box), both = shadow_union_(box);
+  cv::Mat labels = shadow_labels_(box);
+  cv::bitwise_or(weak, confident, both);
+  const int count = cv::connectedComponents(both, labels, 8, CV_32S);
+  shadow_seeded_.assign(static_cast<std::size_t>(count), 0);
+  for (int y = 0; y < box.height; ++y) {
+    const uint8_t* sure = confident.ptr<uint8_t>(y);
+    const int* label = labels.ptr<int>(y);
+    for (int x = 0; x < box.width; ++x)
+      if (sure[x]) shadow_seeded_[label[x]] = 1;
+  }
+  cv::Mat candidates = candidates_(box);
+  for (int y = 0; y < box.height; ++y) {
+    uint8_t* maybe = weak.ptr<uint8_t>(y);
+    uint8_t* sure = confident.ptr<uint8_t>(y);
+    uint8_t* candidate = candidates.ptr<uint8_t>(y);
+    const int* label = labels.ptr<int>(y);
+    for (int x = 0; x < box.width; ++x) {
+      if (!maybe[x]) continue;
+      (shadow_seeded_[label[x]] ? sure : candidate)[x] = 255;
+      maybe[x] = 0;  // ready for the next frame
     }
   }
 }

@@ -2,7 +2,8 @@
 // subtraction then a threshold), with global-gain compensation, shadow suppression, cleanup and an
 // optional slow adaptation of the background. One extractor per camera; not thread-safe, called
 // by that camera's pipeline thread only. No allocation per frame after the first one (except
-// inside OpenCV's contour finder and the SilhouetteMask constructor).
+// inside OpenCV's contour finder, gray's connected-component labelling and the SilhouetteMask
+// constructor).
 #pragma once
 
 #include <string>
@@ -22,14 +23,17 @@ struct SilhouetteOptions {
 
   // Shadows darken the background by a factor in [shadow_min_ratio, shadow_max_ratio]; BGR: the
   // colour stays that of the background within chroma_sigmas * stddev + chroma_ratio * brightness;
-  // gray: the 5x5 neighbourhood stays the background's texture scaled by a factor in the band,
-  // within texture_sigmas * stddev per pixel, and that texture stands out from the noise.
+  // gray: over the 5x5 neighbourhood the ratio frame / background fits a plane (a soft shadow edge
+  // is a ramp) within texture_sigmas times the learned noise. Such a patch is a shadow outright if
+  // the background's texture, scaled by the ratio, carries texture_contrast times the noise energy;
+  // a flatter one only if it is connected to such a shadow, else it is the person's.
   bool suppress_shadows = true;
   float shadow_min_ratio = 0.35f;
   float shadow_max_ratio = 0.97f;
   float shadow_chroma_sigmas = 3.0f;
   float shadow_chroma_ratio = 0.06f;
   float shadow_texture_sigmas = 2.5f;
+  float shadow_texture_contrast = 8.0f;  // set on seeds 101-105 with texture_sigmas 2.5
 
   // Cleanup: opening removes speckle, closing bridges thin gaps; then connected regions smaller than
   // min_blob_fraction of the image are dropped and holes smaller than max_hole_fraction filled.
@@ -83,6 +87,7 @@ class SilhouetteExtractor {
   void estimateGain(const cv::Mat& frame);
   void classifyColor();
   void classifyGray();
+  void resolveWeakShadows(cv::Rect box);
   void cleanup();
   void adapt();
 
@@ -91,6 +96,12 @@ class SilhouetteExtractor {
   cv::Rect roi_;
   cv::Mat margin_;        // per channel: max(threshold_sigmas * stddev, min_difference)
   cv::Mat pixel_sigma_;   // CV_32FC1: mean stddev over channels
+  cv::Mat inverse_mean_;  // gray: 1 / (mean + 1)
+  cv::Mat ratio_noise_;   // gray: sum over each 5x5 patch of (pixel_sigma / (mean + 1))^2
+  cv::Mat texture_;       // gray: the background's texture energy over each 5x5 patch / noise
+  cv::Mat weak_shadow_;   // gray: fits a shadow over a flat patch; 0 between frames
+  cv::Mat shadow_union_, shadow_labels_;  // gray: scratch of resolveWeakShadows
+  std::vector<uint8_t> shadow_seeded_;    // per label: touches a confident shadow
   cv::Mat lower_, upper_; // CV_8UC(c): the unchanged range of each channel
   cv::Mat bound_scratch_;
   cv::Mat normalized_;    // the frame's region of interest divided by the gain

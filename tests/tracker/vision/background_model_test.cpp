@@ -6,6 +6,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+
+#include <unistd.h>
 
 #include <opencv2/core.hpp>
 
@@ -57,6 +60,33 @@ TEST(BackgroundModel, SaveLoadRoundTrip) {
   EXPECT_EQ(cv::norm(model.mean, loaded.mean, cv::NORM_INF), 0.0);
   EXPECT_EQ(cv::norm(model.stddev, loaded.stddev, cv::NORM_INF), 0.0);
   std::filesystem::remove(path);
+}
+
+TEST(BackgroundModel, SaveReplacesTheFileWholeAndLeavesNoTemporary) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("mocap_bg_atomic_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "camera.background.yml").string();
+  saveBackground(path, learnBackground(noisyFrames(CV_8UC1, 3, 2.0)));
+  const BackgroundModel colour = learnBackground(noisyFrames(CV_8UC3, 3, 2.0));
+  saveBackground(path, colour);
+  EXPECT_EQ(loadBackground(path).channels(), 3);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir),
+                          std::filesystem::directory_iterator()),
+            1);
+  // A directory that does not exist: refused, naming the file, and nothing is left behind.
+  const std::string nowhere = (dir / "missing" / "camera.background.yml").string();
+  try {
+    saveBackground(nowhere, colour);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(nowhere + ": background model not saved"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "missing"));
+  std::filesystem::remove_all(dir);
 }
 
 TEST(BackgroundModel, LoadNamesBadField) {
