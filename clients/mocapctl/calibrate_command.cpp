@@ -1,9 +1,12 @@
-// `mocapctl calibrate`: detects the board in per-camera image folders, calibrates the rig and writes
-// the rig file the tracker reads. Prints per-camera reprojection RMS and every rejected view.
+// `mocapctl calibrate`: detects the board in per-camera image folders or a recorded session,
+// calibrates the rig and writes the rig file the tracker reads. Prints per-camera reprojection RMS
+// and every rejected view.
 #include <iomanip>
 #include <iostream>
 
 #include "clients/mocapctl/commands.h"
+#include "clients/mocapctl/session_views.h"
+#include "tracker/calibration/board_flags.h"
 #include "tracker/calibration/calibrate.h"
 #include "tracker/experiments/args.h"
 
@@ -12,28 +15,31 @@ namespace mocapctl {
 int runCalibrate(int argc, char** argv) {
   const mocap::Args args(argc, argv, 2,
                          {"board", "cols", "rows", "square", "marker", "dictionary", "images",
-                          "floor-view", "out", "min-views"},
+                          "session", "every", "floor-view", "out", "min-views"},
                          {});
-  for (const char* required : {"board", "cols", "rows", "square", "images", "out"})
+  if (args.has("images") == args.has("session"))
+    throw std::invalid_argument("give exactly one of --images DIR and --session DIR\nusage: mocapctl " +
+                                std::string(kCalibrateUsage));
+  for (const char* required : {"board", "cols", "rows", "square", "out"})
     if (!args.has(required))
       throw std::invalid_argument(std::string("--") + required + " is required\nusage: mocapctl " +
                                   kCalibrateUsage);
-  mocap::BoardSpec board;
-  board.type = mocap::parseBoardType(args.text("board", ""));
-  board.cols = static_cast<int>(args.integer("cols", 0, 3, 1000));
-  board.rows = static_cast<int>(args.integer("rows", 0, 3, 1000));
-  board.square = args.real("square", 0, 1e-4, 10);
-  board.marker = args.real("marker", board.square * 0.75, 1e-4, 10);
-  board.dictionary = args.text("dictionary", board.dictionary);
-  if (board.type == mocap::BoardType::kCharuco && !args.has("marker"))
-    throw std::invalid_argument("--marker is required for a ChArUco board");
+  // A guessed marker size would scale nothing but could silently mismatch the print: required.
+  if (args.text("board", "") == "charuco" && !args.has("marker"))
+    throw std::invalid_argument("--marker is required for --board charuco (printed marker side, "
+                                "metres)\nusage: mocapctl " + std::string(kCalibrateUsage));
+  const mocap::BoardSpec board = mocap::boardFromFlags(args, mocap::BoardSpec{});
 
   mocap::CalibrationOptions options;
   options.floor_view = args.text("floor-view", "");
   options.min_views = static_cast<int>(args.integer("min-views", options.min_views, 3, 10000));
 
   std::vector<mocap::RejectedView> not_detected;
-  const auto cameras = mocap::detectImageFolders(args.text("images", ""), board, not_detected);
+  const auto cameras =
+      args.has("images")
+          ? mocap::detectImageFolders(args.text("images", ""), board, not_detected)
+          : detectSession(args.text("session", ""), board,
+                          static_cast<int>(args.integer("every", 1, 1, 1'000'000)), not_detected);
   for (const auto& r : not_detected)
     std::cout << "rejected " << r.camera << "/" << r.view << ": " << r.reason << "\n";
   const mocap::CalibrationResult result = mocap::calibrateRig(cameras, board, options);

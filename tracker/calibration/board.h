@@ -28,6 +28,10 @@ struct BoardSpec {
   cv::Point3f corner(int id) const;
 };
 
+// Known ArUco dictionary names ("4X4_50" ... "7X7_1000") and how many markers each holds.
+bool isArucoDictionary(const std::string& name);
+int arucoDictionarySize(const std::string& name);
+
 // Throws std::invalid_argument naming the bad field (sizes, marker >= square, unknown dictionary;
 // a checkerboard must have cols + rows odd, else its corner order is ambiguous under a half turn).
 void validateBoard(const BoardSpec& board);
@@ -37,6 +41,14 @@ struct BoardDetection {
   std::vector<int> ids;               // corner ids, see BoardSpec::corner
   std::vector<cv::Point2f> pixels;    // sub-pixel corner positions
 };
+
+// Fewest corners a view may have: fewer fix a board pose poorly.
+inline constexpr int kMinBoardCorners = 6;
+
+// Empty if `detection` can constrain a board pose; otherwise why not: fewer than
+// kMinBoardCorners corners, ids repeated or not on the board, or every corner on one straight line
+// of the board (a ChArUco board seen along one row, or mostly hidden).
+std::string detectionProblem(const BoardSpec& board, const BoardDetection& detection);
 
 class BoardDetector {
  public:

@@ -2,6 +2,7 @@
 #include "tracker/calibration/calibrate.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <optional>
@@ -103,6 +104,7 @@ struct Intrinsics {
   cv::Mat distortion;  // 5x1
   std::map<std::string, Pose> board_in_camera;
   double rms = 0;
+  std::array<bool, 9> free{};  // fx, fy, cx, cy, k1, k2, p1, p2, k3: estimated, not held at zero
 };
 
 // Refuses views that cannot fix a focal length: all boards (nearly) parallel to the image plane,
@@ -152,14 +154,30 @@ void checkTiltVariety(const CameraObservations& camera, const BoardSpec& board,
   }
 }
 
-Intrinsics calibrateIntrinsics(const CameraObservations& camera, const BoardSpec& board,
+Intrinsics calibrateIntrinsics(const CameraObservations& observed, const BoardSpec& board,
                                const CalibrationOptions& options,
                                std::vector<RejectedView>& rejected) {
-  if (static_cast<int>(camera.views.size()) < options.min_views)
-    throw CalibrationError("camera " + camera.name + ": only " +
-                           std::to_string(camera.views.size()) +
-                           " views with a detected board (need at least " +
-                           std::to_string(options.min_views) + ")");
+  // A partial (ChArUco) view with a few corners, or all on one line, has no unique board pose:
+  // calibrateCamera would fail on it or be skewed by it.
+  CameraObservations camera{observed.name, observed.image_size, {}};
+  std::string first_problem;
+  for (const auto& [name, detection] : observed.views) {
+    const std::string problem = detectionProblem(board, detection);
+    if (problem.empty()) {
+      camera.views.emplace(name, detection);
+      continue;
+    }
+    rejected.push_back({camera.name, name, problem});
+    if (first_problem.empty()) first_problem = " (view " + name + ": " + problem + ")";
+  }
+  if (static_cast<int>(camera.views.size()) < options.min_views) {
+    const std::size_t dropped = observed.views.size() - camera.views.size();
+    throw CalibrationError(
+        "camera " + camera.name + ": only " + std::to_string(camera.views.size()) +
+        " views with a detected board (need at least " + std::to_string(options.min_views) + ")" +
+        (dropped ? "; " + std::to_string(dropped) + " more dropped as unusable" + first_problem
+                 : std::string()));
+  }
   checkTiltVariety(camera, board, options);
 
   std::vector<std::string> names;
@@ -178,6 +196,8 @@ Intrinsics calibrateIntrinsics(const CameraObservations& camera, const BoardSpec
     // whole image in many views; modern lenses have little of it. k3 needs many views too.
     const int flags = (options.estimate_tangential ? 0 : cv::CALIB_ZERO_TANGENT_DIST) |
                       (names.size() < 10 ? cv::CALIB_FIX_K3 : 0);
+    result.free = {true, true, true, true, true, true, options.estimate_tangential,
+                   options.estimate_tangential, (flags & cv::CALIB_FIX_K3) == 0};
     result.rms = cv::calibrateCamera(
         object, image, camera.image_size, k, distortion, rvecs, tvecs, flags,
         cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-12));
@@ -223,20 +243,28 @@ struct Observation {
   std::vector<cv::Point2f> image;
 };
 
-// Joint refinement of every camera pose (world -> camera) and board pose (board -> world) by
-// Levenberg-Marquardt on reprojection error; intrinsics stay fixed. One fixed pose sets the gauge.
+// Camera parameters refined jointly: pose (6), then fx, fy, cx, cy, k1, k2, p1, p2, k3 in the
+// order of projectPoints' Jacobian columns.
+constexpr int kCameraParameters = 15;
+constexpr int kIntrinsicParameters = 9;
+
+// Joint refinement of every camera pose (world -> camera), every camera's intrinsics and every
+// board pose (board -> world) by Levenberg-Marquardt on reprojection error. One fixed pose sets
+// the gauge; `free_intrinsics[c][i]` says which intrinsics of camera c move. Refining intrinsics
+// here and not only per camera matters: a board seen by several cameras has one pose, which ties
+// each camera's focal length and principal point to the others' views; per camera they are weakly
+// fixed by small boards and trade off against the board distances.
 void bundleAdjust(std::vector<Pose>& cameras, std::vector<Pose>& boards,
-                  const std::vector<Observation>& observations,
-                  const std::vector<Intrinsics>& intrinsics, int fixed_camera, int fixed_board,
-                  int iterations) {
+                  const std::vector<Observation>& observations, std::vector<Intrinsics>& intrinsics,
+                  const std::vector<std::array<bool, kIntrinsicParameters>>& free_intrinsics,
+                  int fixed_camera, int fixed_board, int iterations) {
   const int camera_count = static_cast<int>(cameras.size());
-  const int parameters = 6 * (camera_count + static_cast<int>(boards.size()));
-  auto offsetOf = [&](bool is_camera, int index) {
-    if ((is_camera && index == fixed_camera) || (!is_camera && index == fixed_board)) return -1;
-    return 6 * (is_camera ? index : camera_count + index);
-  };
+  const int parameters =
+      kCameraParameters * camera_count + 6 * static_cast<int>(boards.size());
+  const int board_base = kCameraParameters * camera_count;
   auto evaluate = [&](const std::vector<Pose>& cams, const std::vector<Pose>& brds,
-                      Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) {
+                      const std::vector<Intrinsics>& ins, Eigen::MatrixXd* jtj,
+                      Eigen::VectorXd* jtr) {
     double cost = 0;
     for (const Observation& o : observations) {
       const Pose& c = cams[o.camera];
@@ -246,7 +274,7 @@ void bundleAdjust(std::vector<Pose>& cameras, std::vector<Pose>& boards,
                     dt3dr2, dt3dt2);
       std::vector<cv::Point2f> projected;
       cv::Mat jacobian;
-      const Intrinsics& in = intrinsics[o.camera];
+      const Intrinsics& in = ins[o.camera];
       cv::projectPoints(o.object, r3, t3, in.k, in.distortion, projected, jacobian);
       const int n = static_cast<int>(o.image.size());
       Eigen::VectorXd residual(2 * n);
@@ -263,23 +291,23 @@ void bundleAdjust(std::vector<Pose>& cameras, std::vector<Pose>& boards,
       };
       const RowMatrix j = map(jacobian);
       const RowMatrix j_r = j.leftCols(3), j_t = j.middleCols(3, 3);
-      Eigen::MatrixXd j_camera(2 * n, 6), j_board(2 * n, 6);
-      j_camera << j_r * map(dr3dr2) + j_t * map(dt3dr2), j_r * map(dr3dt2) + j_t * map(dt3dt2);
+      Eigen::MatrixXd j_camera(2 * n, kCameraParameters), j_board(2 * n, 6);
+      j_camera.leftCols(6) << j_r * map(dr3dr2) + j_t * map(dt3dr2),
+          j_r * map(dr3dt2) + j_t * map(dt3dt2);
+      j_camera.rightCols(kIntrinsicParameters) = j.middleCols(6, kIntrinsicParameters);
+      for (int i = 0; i < kIntrinsicParameters; ++i)
+        if (!free_intrinsics[o.camera][i]) j_camera.col(6 + i).setZero();
+      if (o.camera == fixed_camera) j_camera.leftCols(6).setZero();
       j_board << j_r * map(dr3dr1) + j_t * map(dt3dr1), j_r * map(dr3dt1) + j_t * map(dt3dt1);
-      const int oc = offsetOf(true, o.camera), ob = offsetOf(false, o.board);
-      if (oc >= 0) {
-        jtj->block<6, 6>(oc, oc) += j_camera.transpose() * j_camera;
-        jtr->segment<6>(oc) += j_camera.transpose() * residual;
-      }
-      if (ob >= 0) {
-        jtj->block<6, 6>(ob, ob) += j_board.transpose() * j_board;
-        jtr->segment<6>(ob) += j_board.transpose() * residual;
-      }
-      if (oc >= 0 && ob >= 0) {
-        const Eigen::Matrix<double, 6, 6> cross = j_camera.transpose() * j_board;
-        jtj->block<6, 6>(oc, ob) += cross;
-        jtj->block<6, 6>(ob, oc) += cross.transpose();
-      }
+      if (o.board == fixed_board) j_board.setZero();
+      const int oc = kCameraParameters * o.camera, ob = board_base + 6 * o.board;
+      jtj->block<kCameraParameters, kCameraParameters>(oc, oc) += j_camera.transpose() * j_camera;
+      jtr->segment<kCameraParameters>(oc) += j_camera.transpose() * residual;
+      jtj->block<6, 6>(ob, ob) += j_board.transpose() * j_board;
+      jtr->segment<6>(ob) += j_board.transpose() * residual;
+      const Eigen::Matrix<double, kCameraParameters, 6> cross = j_camera.transpose() * j_board;
+      jtj->block<kCameraParameters, 6>(oc, ob) += cross;
+      jtj->block<6, kCameraParameters>(ob, oc) += cross.transpose();
     }
     return cost;
   };
@@ -288,27 +316,40 @@ void bundleAdjust(std::vector<Pose>& cameras, std::vector<Pose>& boards,
   for (int iteration = 0; iteration < iterations; ++iteration) {
     Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(parameters, parameters);
     Eigen::VectorXd jtr = Eigen::VectorXd::Zero(parameters);
-    const double cost = evaluate(cameras, boards, &jtj, &jtr);
+    const double cost = evaluate(cameras, boards, intrinsics, &jtj, &jtr);
     bool improved = false;
     for (int attempt = 0; attempt < 10 && !improved; ++attempt) {
       Eigen::MatrixXd damped = jtj;
-      for (int i = 0; i < parameters; ++i) damped(i, i) += lambda * jtj(i, i) + 1e-12;
+      // Fixed parameters have all-zero rows: the unit diagonal keeps their step at zero.
+      for (int i = 0; i < parameters; ++i)
+        damped(i, i) += jtj(i, i) == 0 ? 1.0 : lambda * jtj(i, i) + 1e-12;
       const Eigen::VectorXd step = damped.ldlt().solve(-jtr);
       std::vector<Pose> next_cameras = cameras, next_boards = boards;
+      std::vector<Intrinsics> next_intrinsics = intrinsics;
       auto apply = [&](Pose& p, int offset) {
-        if (offset < 0) return;
         for (int a = 0; a < 3; ++a) {
           p.r[a] += step[offset + a];
           p.t[a] += step[offset + 3 + a];
         }
       };
-      for (int c = 0; c < camera_count; ++c) apply(next_cameras[c], offsetOf(true, c));
+      for (int c = 0; c < camera_count; ++c) {
+        const int offset = kCameraParameters * c;
+        apply(next_cameras[c], offset);
+        Intrinsics& in = next_intrinsics[c];
+        in.distortion = in.distortion.clone();
+        in.k(0, 0) += step[offset + 6];
+        in.k(1, 1) += step[offset + 7];
+        in.k(0, 2) += step[offset + 8];
+        in.k(1, 2) += step[offset + 9];
+        for (int d = 0; d < 5; ++d) in.distortion.at<double>(d) += step[offset + 10 + d];
+      }
       for (int b = 0; b < static_cast<int>(boards.size()); ++b)
-        apply(next_boards[b], offsetOf(false, b));
-      const double next_cost = evaluate(next_cameras, next_boards, nullptr, nullptr);
+        apply(next_boards[b], board_base + 6 * b);
+      const double next_cost = evaluate(next_cameras, next_boards, next_intrinsics, nullptr, nullptr);
       if (next_cost < cost) {
         cameras = std::move(next_cameras);
         boards = std::move(next_boards);
+        intrinsics = std::move(next_intrinsics);
         lambda = std::max(lambda / 3, 1e-9);
         improved = true;
         if (cost - next_cost < 1e-10 * cost) return;  // converged
@@ -380,7 +421,7 @@ CalibrationResult calibrateRig(const std::vector<CameraObservations>& cameras,
                            joined(placed) + ": each camera needs views (same image name) in which "
                            "the board is also seen by a camera already placed");
 
-  // Boards worth refining: views seen by two cameras or more, and the floor view.
+  // Every kept view is refined: those seen by one camera still constrain its intrinsics.
   std::map<std::string, std::vector<int>> seen_by;
   for (int c = 0; c < camera_count; ++c)
     for (const auto& entry : intrinsics[c].board_in_camera) seen_by[entry.first].push_back(c);
@@ -390,7 +431,6 @@ CalibrationResult calibrateRig(const std::vector<CameraObservations>& cameras,
   int fixed_board = -1;
   for (const auto& [view, list] : seen_by) {
     const bool is_floor = view == options.floor_view;
-    if (list.size() < 2 && !is_floor) continue;
     std::vector<Eigen::Isometry3d> estimates;
     for (int c : list)
       estimates.push_back(camera_from_world[c]->inverse() *
@@ -403,8 +443,10 @@ CalibrationResult calibrateRig(const std::vector<CameraObservations>& cameras,
       observations.push_back({c, index, objectPoints(board, detection), detection.pixels});
     }
   }
-  bundleAdjust(camera_poses, board_poses, observations, intrinsics, fixed_board < 0 ? 0 : -1,
-               fixed_board, options.bundle_iterations);
+  std::vector<std::array<bool, kIntrinsicParameters>> free_intrinsics;
+  for (const Intrinsics& in : intrinsics) free_intrinsics.push_back(in.free);
+  bundleAdjust(camera_poses, board_poses, observations, intrinsics, free_intrinsics,
+               fixed_board < 0 ? 0 : -1, fixed_board, options.bundle_iterations);
 
   std::vector<double> squared(camera_count, 0.0);
   std::vector<long> counted(camera_count, 0);

@@ -1,9 +1,9 @@
 // Multi-camera calibration from board views: intrinsics per camera (OpenCV's calibrateCamera with
 // outlier views dropped), then all cameras in one world frame by chaining the board poses of views
-// shared between cameras and refining every camera and board pose jointly (bundle adjustment on
-// reprojection error). The world is the board of a designated floor view: origin at its first inner
-// corner, x along its columns, Z up. Refuses, with a message naming the camera, inputs that do not
-// constrain a camera.
+// shared between cameras and refining every camera pose, camera intrinsics and board pose jointly
+// (bundle adjustment on reprojection error). The world is the board of a designated floor view:
+// origin at its first inner corner, x along its columns, Z up. Refuses, with a message naming the
+// camera, inputs that do not constrain a camera.
 #pragma once
 
 #include <map>
@@ -51,7 +51,7 @@ struct CameraReport {
   std::string name;
   int views_used = 0;
   double intrinsic_rms_px = 0;  // calibrateCamera's, over the camera's kept views
-  double rig_rms_px = 0;        // after joint refinement, over the views shared with others
+  double rig_rms_px = 0;        // after joint refinement (intrinsics too), over its kept views
 };
 
 struct CalibrationResult {

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tracker/calibration/board_flags.h"
 #include "tracker/experiments/args.h"
 #include "tracker/experiments/commands.h"
 
@@ -51,17 +52,135 @@ std::vector<double> distortionVector(const CameraModel& c) {
   return {c.distortion.begin(), c.distortion.end()};
 }
 
+// For every pixel of the (distorted) image, the ideal pinhole pixel it sees. Iterated to
+// convergence: the default 5 iterations leave tenths of a pixel at the image corners.
+cv::Mat idealPixelMap(const CameraModel& camera, const cv::Size& size) {
+  std::vector<cv::Point2f> pixels, ideal;
+  pixels.reserve(size.area());
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) pixels.emplace_back(x, y);
+  cv::undistortPoints(pixels, ideal, intrinsicMatrix(camera), distortionVector(camera),
+                      cv::noArray(), intrinsicMatrix(camera),
+                      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-9));
+  return cv::Mat(ideal, true).reshape(2, size.height);
+}
+
+// Sub-pixel samples per pixel side. One sample per pixel aliases the board's edges (each edge's
+// position snaps to the pixel grid: ~0.15 px RMS corner error even without noise); 4x4 samples
+// with a bilinear texture whose texels are no smaller than a sample keep it a few hundredths.
+constexpr int kSupersample = 4;
+constexpr uchar kBackground = 110;
+
+// The board texture seen through `camera`: every pixel averages kSupersample^2 samples, each
+// traced back through the lens distortion (`ideal`, see idealPixelMap) and the board plane into
+// the texture. Only the board's bounding box is supersampled; the rest is background.
+cv::Mat renderView(const cv::Mat& texture, const cv::Matx33d& texture_to_board,
+                   const CameraModel& camera, const Eigen::Isometry3d& board_to_camera,
+                   const cv::Mat& ideal) {
+  const cv::Size size = ideal.size();
+  cv::Mat image(size, CV_8UC1, cv::Scalar(kBackground));
+  const Eigen::Matrix3d r = board_to_camera.linear();
+  const Eigen::Vector3d t = board_to_camera.translation();
+  const cv::Matx33d plane(r(0, 0), r(0, 1), t.x(), r(1, 0), r(1, 1), t.y(), r(2, 0), r(2, 1),
+                          t.z());
+  const cv::Matx33d texture_to_ideal = intrinsicMatrix(camera) * plane * texture_to_board;
+  const cv::Matx33d ideal_to_texture = texture_to_ideal.inv();
+
+  // Bounding box of the texture's outline (bent by the distortion, hence sampled along edges).
+  double x0 = size.width, y0 = size.height, x1 = 0, y1 = 0;
+  const double tw = texture.cols, th = texture.rows;
+  for (int i = 0; i <= 40; ++i) {
+    const double s = i / 40.0;
+    for (const cv::Point2d& p : {cv::Point2d(s * tw, 0), cv::Point2d(s * tw, th),
+                                 cv::Point2d(0, s * th), cv::Point2d(tw, s * th)}) {
+      const cv::Point2d texel(p.x - 0.5, p.y - 0.5);  // texture edge in pixel-centre coordinates
+      const cv::Vec3d board = texture_to_board * cv::Vec3d(texel.x, texel.y, 1);
+      const Eigen::Vector3d in_camera = board_to_camera * Eigen::Vector3d(board[0] / board[2],
+                                                                         board[1] / board[2], 0);
+      if (in_camera.z() < CameraModel::kMinDepth) return image;  // not expected for shown views
+      const Eigen::Vector2d pixel = camera.projectCameraPoint(in_camera);
+      x0 = std::min(x0, pixel.x());
+      y0 = std::min(y0, pixel.y());
+      x1 = std::max(x1, pixel.x());
+      y1 = std::max(y1, pixel.y());
+    }
+  }
+  const cv::Rect box = cv::Rect(cv::Point(static_cast<int>(std::floor(x0)) - 3,
+                                          static_cast<int>(std::floor(y0)) - 3),
+                                cv::Point(static_cast<int>(std::ceil(x1)) + 4,
+                                          static_cast<int>(std::ceil(y1)) + 4)) &
+                       cv::Rect(cv::Point(0, 0), size);
+  if (box.empty()) return image;
+
+  // Sample (i, j) of pixel (x, y) sits at (x - 0.5 + (i + 0.5) / S, ...); its ideal position is
+  // interpolated from the per-pixel map (the distortion is smooth at that scale).
+  const int n = kSupersample;
+  cv::Mat to_texture(box.height * n, box.width * n, CV_32FC2);
+  for (int sy = 0; sy < to_texture.rows; ++sy) {
+    const double v = box.y - 0.5 + (sy + 0.5) / n;
+    const double vc = std::clamp(v, 0.0, size.height - 1.0);
+    const int yi = std::min(static_cast<int>(vc), size.height - 2);
+    const double fy = vc - yi;
+    const cv::Vec2f* row0 = ideal.ptr<cv::Vec2f>(yi);
+    const cv::Vec2f* row1 = ideal.ptr<cv::Vec2f>(yi + 1);
+    cv::Vec2f* out = to_texture.ptr<cv::Vec2f>(sy);
+    for (int sx = 0; sx < to_texture.cols; ++sx) {
+      const double u = box.x - 0.5 + (sx + 0.5) / n;
+      const double uc = std::clamp(u, 0.0, size.width - 1.0);
+      const int xi = std::min(static_cast<int>(uc), size.width - 2);
+      const double fx = uc - xi;
+      // Outside the image's pixel centres the map is extended linearly from its edge.
+      double px = 0, py = 0;
+      for (int c = 0; c < 2; ++c) {
+        const double top = row0[xi][c] * (1 - fx) + row0[xi + 1][c] * fx;
+        const double bottom = row1[xi][c] * (1 - fx) + row1[xi + 1][c] * fx;
+        (c == 0 ? px : py) = top * (1 - fy) + bottom * fy;
+      }
+      px += (u - uc) * (row0[xi + 1][0] - row0[xi][0]);
+      py += (v - vc) * (row1[xi][1] - row0[xi][1]);
+      const cv::Vec3d h = ideal_to_texture * cv::Vec3d(px, py, 1);
+      out[sx] = cv::Vec2f(static_cast<float>(h[0] / h[2]), static_cast<float>(h[1] / h[2]));
+    }
+  }
+  cv::Mat samples, averaged;
+  cv::remap(texture, samples, to_texture, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+            cv::Scalar(kBackground));
+  // Integer factor: INTER_AREA is the exact mean of each pixel's samples.
+  cv::resize(samples, averaged, box.size(), 0, 0, cv::INTER_AREA);
+  averaged.copyTo(image(box));
+  return image;
+}
+
 }  // namespace
+
+BoardSpec experimentBoard(BoardType type) {
+  BoardSpec board;
+  board.type = type;
+  if (type == BoardType::kCheckerboard) {
+    board.cols = 9;
+    board.rows = 6;
+    board.square = 0.06;
+    board.marker = 0.045;
+    return board;
+  }
+  // Markers must decode 2-3 m away: with 11 cm squares a bit of a 5x5 marker (7 cells with its
+  // border) is 1.2 cm, 3-4 px in these cameras. 7x5 squares fit an A1 sheet (84 x 59 cm); an odd
+  // row count keeps the pattern the same in OpenCV before and after 4.6 (4.6 changed even ones).
+  board.cols = 7;
+  board.rows = 5;
+  board.square = 0.11;
+  board.marker = 0.0825;
+  board.dictionary = "5X5_100";
+  return board;
+}
 
 RenderedCalibration renderCalibrationViews(const CalibrationExperimentConfig& config) {
   if (config.cameras < 1 || config.views < 2)
     throw std::invalid_argument("need at least 1 camera and 2 views");
   RenderedCalibration out;
-  out.board.type = config.board;
-  out.board.cols = 9;
-  out.board.rows = 6;
-  out.board.square = 0.06;
-  out.board.marker = 0.045;
+  out.board = config.custom_board ? *config.custom_board : experimentBoard(config.board);
+  validateBoard(out.board);
+  const bool charuco = out.board.type == BoardType::kCharuco;
   const Eigen::Vector3d board_centre_local((out.board.cols - 2) * out.board.square / 2,
                                            (out.board.rows - 2) * out.board.square / 2, 0);
   // World = the floor board, face up: board (x, y, 0) is world (x, -y, 0).
@@ -69,7 +188,8 @@ RenderedCalibration renderCalibrationViews(const CalibrationExperimentConfig& co
   out.truth = truthRig(config.cameras, config.width, config.height, centre);
 
   cv::Matx33d texture_to_board;
-  const int pixels_per_square = 24;
+  // A ChArUco marker bit needs several texels to keep its edges where they belong.
+  const int pixels_per_square = charuco ? 60 : 24;
   const cv::Mat texture = renderBoardImage(out.board, pixels_per_square, texture_to_board);
   cv::RNG rng(config.seed * 104729 + 3);
 
@@ -97,31 +217,20 @@ RenderedCalibration renderCalibrationViews(const CalibrationExperimentConfig& co
     std::snprintf(name, sizeof name, "view_%03d", v);
     views.emplace_back(name, pose);
   }
+  for (const auto& [name, pose] : views) out.board_poses[name] = pose;
 
   const BoardDetector detector(out.board);
   const cv::Size size(config.width, config.height);
-  const cv::Point2d margin(config.width / 4.0, config.height / 4.0);
-  const cv::Size canvas(config.width + 2 * static_cast<int>(margin.x),
-                        config.height + 2 * static_cast<int>(margin.y));
+  double detector_squared = 0;
   for (const CameraModel& camera : out.truth) {
     CameraObservations observed;
     observed.name = camera.name;
     observed.image_size = size;
-    // Where each distorted image pixel looks in the undistorted canvas.
-    std::vector<cv::Point2f> pixels, ideal;
-    for (int y = 0; y < size.height; ++y)
-      for (int x = 0; x < size.width; ++x) pixels.emplace_back(x, y);
-    // Iterated to convergence: the default 5 iterations leave tenths of a pixel at the corners.
-    cv::undistortPoints(pixels, ideal, intrinsicMatrix(camera), distortionVector(camera),
-                        cv::noArray(), intrinsicMatrix(camera),
-                        cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-9));
-    cv::Mat map(size, CV_32FC2);
-    for (int i = 0; i < static_cast<int>(ideal.size()); ++i)
-      map.at<cv::Vec2f>(i / size.width, i % size.width) =
-          cv::Vec2f(ideal[i].x + static_cast<float>(margin.x), ideal[i].y + static_cast<float>(margin.y));
+    const cv::Mat ideal = idealPixelMap(camera, size);
 
     for (const auto& [name, board_to_world] : views) {
-      // Visible: the printed face turned toward the camera, every corner inside the image.
+      // Visible: the printed face turned toward the camera, every corner inside the image; a
+      // ChArUco board also partly (its corners are identified by the markers near them).
       Eigen::Isometry3d world_to_camera = Eigen::Isometry3d::Identity();
       world_to_camera.linear() = camera.rotation;
       world_to_camera.translation() = camera.translation;
@@ -130,27 +239,20 @@ RenderedCalibration renderCalibrationViews(const CalibrationExperimentConfig& co
           (camera.center() - board_to_world * board_centre_local).normalized();
       const Eigen::Vector3d face = -(board_to_world.linear().col(2));
       if (face.dot(to_camera) < std::cos(68 * M_PI / 180)) continue;
-      bool inside = true;
-      for (int id = 0; id < out.board.cornerCount() && inside; ++id) {
+      int inside = 0;
+      for (int id = 0; id < out.board.cornerCount(); ++id) {
         const cv::Point3f c = out.board.corner(id);
         Eigen::Vector2d pixel;
-        inside = camera.project(board_to_world * Eigen::Vector3d(c.x, c.y, c.z), pixel) &&
-                 pixel.x() > 15 && pixel.y() > 15 && pixel.x() < size.width - 16 &&
-                 pixel.y() < size.height - 16;
+        if (camera.project(board_to_world * Eigen::Vector3d(c.x, c.y, c.z), pixel) &&
+            pixel.x() > 15 && pixel.y() > 15 && pixel.x() < size.width - 16 &&
+            pixel.y() < size.height - 16)
+          ++inside;
+        else if (!charuco)
+          break;
       }
-      if (!inside) continue;
+      if (charuco ? inside == 0 : inside < out.board.cornerCount()) continue;
 
-      const Eigen::Matrix3d r = board_to_camera.linear();
-      const Eigen::Vector3d t = board_to_camera.translation();
-      const cv::Matx33d plane(r(0, 0), r(0, 1), t.x(), r(1, 0), r(1, 1), t.y(), r(2, 0), r(2, 1),
-                              t.z());
-      const cv::Matx33d shift(1, 0, margin.x, 0, 1, margin.y, 0, 0, 1);
-      const cv::Matx33d homography = shift * intrinsicMatrix(camera) * plane * texture_to_board;
-      cv::Mat undistorted, image;
-      cv::warpPerspective(texture, undistorted, homography, canvas, cv::INTER_LINEAR,
-                          cv::BORDER_CONSTANT, cv::Scalar(110));
-      cv::remap(undistorted, image, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-                cv::Scalar(110));
+      cv::Mat image = renderView(texture, texture_to_board, camera, board_to_camera, ideal);
       cv::GaussianBlur(image, image, cv::Size(0, 0), 0.6);
       cv::Mat noise(size, CV_16SC1);
       rng.fill(noise, cv::RNG::NORMAL, 0, 2.0);
@@ -169,6 +271,17 @@ RenderedCalibration renderCalibrationViews(const CalibrationExperimentConfig& co
         out.rejected.push_back({camera.name, name, why});
         continue;
       }
+      for (std::size_t i = 0; i < detection.ids.size(); ++i) {
+        const cv::Point3f c = out.board.corner(detection.ids[i]);
+        Eigen::Vector2d truth;
+        camera.project(board_to_world * Eigen::Vector3d(c.x, c.y, c.z), truth);
+        const double error = std::hypot(truth.x() - detection.pixels[i].x,
+                                        truth.y() - detection.pixels[i].y);
+        detector_squared += error * error;
+        out.detector_max_px = std::max(out.detector_max_px, error);
+      }
+      out.corners_detected += static_cast<long>(detection.ids.size());
+      if (static_cast<int>(detection.ids.size()) < out.board.cornerCount()) ++out.partial_views;
       for (cv::Point2f& p : detection.pixels) {
         p.x += static_cast<float>(rng.gaussian(config.noise_px));
         p.y += static_cast<float>(rng.gaussian(config.noise_px));
@@ -177,6 +290,8 @@ RenderedCalibration renderCalibrationViews(const CalibrationExperimentConfig& co
     }
     out.observations.push_back(std::move(observed));
   }
+  if (out.corners_detected > 0)
+    out.detector_rms_px = std::sqrt(detector_squared / static_cast<double>(out.corners_detected));
   return out;
 }
 
@@ -227,8 +342,23 @@ nlohmann::json runCalibrationExperiment(const CalibrationExperimentConfig& confi
   summary["cameras_count"] = config.cameras;
   summary["views"] = config.views;
   summary["noise_px"] = config.noise_px;
-  summary["board"] = config.board == BoardType::kCheckerboard ? "checkerboard" : "charuco";
+  const BoardSpec& board = rendered.board;
+  summary["board"] = board.type == BoardType::kCheckerboard ? "checkerboard" : "charuco";
+  summary["board_spec"] = {{"cols", board.cols}, {"rows", board.rows}, {"square", board.square}};
+  if (board.type == BoardType::kCharuco) {
+    summary["board_spec"]["marker"] = board.marker;
+    summary["board_spec"]["dictionary"] = board.dictionary;
+  }
   summary["views_not_detected"] = rendered.rejected.size();
+  int detected_views = 0;
+  for (const CameraObservations& camera : rendered.observations)
+    detected_views += static_cast<int>(camera.views.size());
+  summary["views_detected"] = detected_views;
+  summary["partial_views"] = rendered.partial_views;
+  summary["corners_per_view"] =
+      detected_views ? static_cast<double>(rendered.corners_detected) / detected_views : 0.0;
+  summary["detector_rms_px"] = rendered.detector_rms_px;
+  summary["detector_max_px"] = rendered.detector_max_px;
   summary["views_rejected"] = result.rejected.size();
   summary["render_detect_seconds"] = std::chrono::duration<double>(rendered_at - start).count();
   summary["calibrate_seconds"] = std::chrono::duration<double>(end - rendered_at).count();
@@ -237,7 +367,8 @@ nlohmann::json runCalibrationExperiment(const CalibrationExperimentConfig& confi
 
 int runCalibrationCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
-                  {"cameras", "views", "noise", "seed", "board", "width", "height", "write-images"},
+                  {"cameras", "views", "noise", "seed", "board", "cols", "rows", "square", "marker",
+                   "dictionary", "width", "height", "write-images"},
                   {});
   CalibrationExperimentConfig config;
   config.cameras = static_cast<int>(args.integer("cameras", 4, 1, 16));
@@ -245,6 +376,10 @@ int runCalibrationCommand(int argc, char** argv) {
   config.noise_px = args.real("noise", 0.2, 0, 10);
   config.seed = static_cast<uint64_t>(args.integer("seed", 1, 0, 1L << 40));
   config.board = parseBoardType(args.text("board", "checkerboard"));
+  // Board flags change the experiment's default board of that type; checked like mocapctl's.
+  if (args.has("cols") || args.has("rows") || args.has("square") || args.has("marker") ||
+      args.has("dictionary"))
+    config.custom_board = boardFromFlags(args, experimentBoard(config.board));
   config.width = static_cast<int>(args.integer("width", 780, 160, 8192));
   config.height = static_cast<int>(args.integer("height", 580, 120, 8192));
   config.write_images = args.text("write-images", "");
