@@ -3,9 +3,9 @@
 // The DBN is walked in topological order: one layer per DOF (the hidden node), each followed by the
 // observation of the segment that DOF moves. A layer completes every kept particle with S equally
 // spaced samples of the DOF's uniform proposal (deterministic interval sampling), a small share of
-// candidates drawn instead from the DOF's whole range (static particle injection), weighs each
-// candidate by its segment's masked-chain likelihood and keeps the K best without uniformizing
-// their weights. A particle remembers, per segment, the node holding that segment's world pose and
+// candidates drawn instead from the DOF's whole range (static particle injection; optionally all
+// of a segment's angles at once, FilterOptions::Injection), weighs each candidate by its segment's
+// masked-chain likelihood and keeps the K best without uniformizing their weights. A particle remembers, per segment, the node holding that segment's world pose and
 // footprints, so later layers extend its chain and mask what it already explains. Optionally a
 // layer ranks its candidates by a look-ahead over more of the body (FilterOptions::Lookahead) while
 // each particle's weight keeps only the paper's factor.
@@ -25,6 +25,7 @@ struct Layer {
   int segment = -1;
   int dof = -1;             // -1: observation only (a DOF-less segment moved by its ancestors)
   bool lookahead = false;   // ranked by a look-ahead (see FilterOptions::Lookahead)
+  bool first_dof = false;   // the segment's first sampled DOF
 };
 
 // A segment placed in one particle's chain: its world pose and footprints (one per camera).
@@ -161,11 +162,11 @@ class FactoredFilter final : public PoseFilter {
       int free_count = 0;
       for (int d : seg.dofs) {
         if (!model_.dofs[d].isFree()) continue;
-        layers_.push_back({si, d, usesLookahead(si)});
+        layers_.push_back({si, d, usesLookahead(si), free_count == 0});
         ++free_count;
       }
       // Moved only by its ancestors: observed once so the chain masks what it explains.
-      if (free_count == 0) layers_.push_back({si, -1, false});
+      if (free_count == 0) layers_.push_back({si, -1, false, false});
     }
   }
 
@@ -266,8 +267,20 @@ class FactoredFilter final : public PoseFilter {
     if (dof.type == DofType::kTranslation) return count;
     const int injected = std::min(count, static_cast<int>(injection_debt));
     injection_debt -= injected;
-    std::uniform_real_distribution<double> anywhere(dof.min, dof.max);
-    for (int k = 0; k < injected; ++k) candidates_[count - 1 - k].q[layer.dof] = anywhere(rng_);
+    const bool whole_segment =
+        options_.injection == FilterOptions::Injection::kSegment && layer.first_dof;
+    for (int k = 0; k < injected; ++k) {
+      Eigen::VectorXd& q = candidates_[count - 1 - k].q;
+      if (!whole_segment) {
+        q[layer.dof] = std::uniform_real_distribution<double>(dof.min, dof.max)(rng_);
+        continue;
+      }
+      for (int d : model_.segments[layer.segment].dofs) {
+        const Dof& angle = model_.dofs[d];
+        if (angle.isFree() && angle.type != DofType::kTranslation)
+          q[d] = std::uniform_real_distribution<double>(angle.min, angle.max)(rng_);
+      }
+    }
     return count;
   }
 

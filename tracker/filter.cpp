@@ -30,6 +30,12 @@ FilterOptions::Lookahead parseLookahead(const std::string& name) {
   throw std::invalid_argument("lookahead: expected none, root, subtree or body, got '" + name + "'");
 }
 
+FilterOptions::Injection parseInjection(const std::string& name) {
+  if (name == "dof") return FilterOptions::Injection::kDof;
+  if (name == "segment") return FilterOptions::Injection::kSegment;
+  throw std::invalid_argument("injection: expected dof or segment, got '" + name + "'");
+}
+
 std::pair<double, double> proposalInterval(const Dof& dof, double value) {
   return {std::max(dof.min, value - dof.max_speed), std::min(dof.max, value + dof.max_speed)};
 }

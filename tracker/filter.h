@@ -27,6 +27,12 @@ struct FilterOptions {
   int keep = 5;                   // factored: K best candidates kept per layer
   int samples = 0;                // factored: S samples per interval; 0 = derived from the budget
   double injection_share = 0.02;  // factored: share of candidates from the static distribution
+  // factored: what an injected candidate redraws over the whole range. kDof is the paper: the
+  // layer's DOF. kSegment: at a segment's first DOF layer, all its joint angles at once (and the
+  // layer's DOF elsewhere): a limb lost inside the trunk's silhouette scores no better one DOF
+  // away, and only comes back when its angles land near the truth together.
+  enum class Injection { kDof, kSegment };
+  Injection injection = Injection::kDof;
   // factored: what a layer ranks its candidates by. kNone is the paper: the layer's own segment
   // against the silhouette minus what earlier segments explain. Greedy, it lets a segment slide
   // over silhouette that belongs to segments observed later (a big root or trunk steals the limbs'
@@ -93,6 +99,9 @@ void weightedEstimate(const std::vector<const Eigen::VectorXd*>& particles,
 
 // "none", "root", "subtree" or "body"; throws std::invalid_argument otherwise.
 FilterOptions::Lookahead parseLookahead(const std::string& name);
+
+// "dof" or "segment"; throws std::invalid_argument otherwise.
+FilterOptions::Injection parseInjection(const std::string& name);
 
 // The interval the proposal samples for DOF `d` around `value`: +-max_speed, clipped to the limits.
 std::pair<double, double> proposalInterval(const Dof& dof, double value);

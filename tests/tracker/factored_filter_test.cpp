@@ -1,10 +1,12 @@
 // The factored particle filter: it finds a known static pose from a perturbed start, spends exactly
-// its budget, does not depend on the thread count, and recovers a misplaced joint by injection.
+// its budget, does not depend on the thread count, and recovers a misplaced joint by injection (of
+// one DOF, or of a whole segment's angles).
 #include <gtest/gtest.h>
 
 #include "tests/tracker/filter_test_support.h"
 #include "tracker/filter.h"
 #include "tracker/motion.h"
+#include "tracker/scene.h"
 
 namespace mocap {
 namespace {
@@ -87,6 +89,66 @@ TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {
   };
   EXPECT_GT(mcpErrorAfter(0.0, 4), 25.0);  // physically limited: 60 - 4 x 8 = 28 degrees left
   EXPECT_LT(mcpErrorAfter(0.1, 4), 10.0);
+}
+
+// A limb swung far from where the tracker holds it (here: inside the trunk's side, while the truth
+// raises it forward and sideways, beyond many speed limits in two DOFs at once). Redrawing one DOF
+// at a time leaves the other where it was, so no injected candidate reaches the limb's silhouette;
+// redrawing the segment's angles together does.
+TEST(FactoredFilter, SegmentInjectionRecoversALimbThatNeedsTwoDofsAtOnce) {
+  const BodyModel model = parseBodyModel(R"(
+name: trunk_and_arm
+segments:
+  - name: trunk
+    shape: {type: ellipsoid, center: [0, 0, 0], radii: [0.15, 0.1, 0.3]}
+  - name: arm
+    parent: trunk
+    offset: [0.08, 0, 0.2]
+    dofs:
+      - {name: flex, axis: [1, 0, 0], min: -60, max: 180, max_speed: 3}
+      - {name: abduct, axis: [0, -1, 0], min: -30, max: 180, max_speed: 3}
+    shape: {type: cone, axis: [0, 0, -1], length: 0.6, radius_start: 0.05, radius_end: 0.04}
+    points: [{name: hand, at: [0, 0, -0.6]}]
+)",
+                                         "trunk_and_arm.yaml");
+  Rig rig;
+  for (int i = 0; i < 2; ++i) {
+    const double azimuth = (30.0 + 90.0 * i) * M_PI / 180;
+    rig.push_back(CameraModel::lookAt("cam" + std::to_string(i),
+                                      Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), 0.3),
+                                      Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 240, 180, 200));
+  }
+  Eigen::VectorXd truth(2), start(2);
+  truth << 100 * M_PI / 180, 60 * M_PI / 180;
+  start << 0, 0;
+  SceneRenderer renderer(model, rig);
+  std::vector<SilhouetteMask> masks;
+  for (const cv::Mat& image : renderer.renderSilhouettes(truth)) masks.emplace_back(image);
+
+  auto handError = [&](FilterOptions::Injection injection) {
+    WorkerPool pool(1);
+    FilterOptions options;
+    options.evaluations_per_frame = 200;
+    options.injection_share = 0.2;
+    options.injection = injection;
+    auto filter = makeFilter("factored", model, rig, options, pool);
+    filter->reset(start);
+    FrameEstimate e;
+    for (int f = 0; f < 30; ++f) e = filter->step(masks);
+    KinematicsData a(model), b(model);
+    forwardKinematics(model, a, e.q);
+    forwardKinematics(model, b, truth);
+    return (pointPositions(model, a)[0] - pointPositions(model, b)[0]).norm();
+  };
+  const double start_error = [&] {
+    KinematicsData a(model), b(model);
+    forwardKinematics(model, a, start);
+    forwardKinematics(model, b, truth);
+    return (pointPositions(model, a)[0] - pointPositions(model, b)[0]).norm();
+  }();
+  ASSERT_GT(start_error, 0.5);
+  EXPECT_LT(handError(FilterOptions::Injection::kSegment), 0.03);
+  EXPECT_GT(handError(FilterOptions::Injection::kDof), 0.2);
 }
 
 TEST(FactoredFilter, FrozenDofsGetNoLayersAndKeepTheirValue) {

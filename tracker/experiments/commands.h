@@ -14,9 +14,9 @@ int runHandCommand(int argc, char** argv);
 inline constexpr const char* kHumanUsage =
     "human --motion FILE.bvh [--method factored|condensation|annealed] [--evals N] [--cameras N]\n"
     "       [--frames N] [--seed S] [--dofs 31|17] [--noise none|realistic] [--threads N]\n"
-    "       [--start-offset none|arm60|body30cm] [--injection SHARE] [--keep K] [--samples S]\n"
-    "       [--layers M] [--lookahead none|root|subtree|body] [--estimate mean|best]\n"
-    "       [--model FILE.yaml]";
+    "       [--start-offset none|arm60|body30cm] [--injection SHARE] [--inject dof|segment]\n"
+    "       [--keep K] [--samples S] [--layers M] [--lookahead none|root|subtree|body]\n"
+    "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]";
 int runHumanCommand(int argc, char** argv);
 
 inline constexpr const char* kBvhFitUsage =
@@ -25,11 +25,14 @@ int runBvhFitCommand(int argc, char** argv);
 
 inline constexpr const char* kSilhouetteUsage =
     "silhouette [--seed S] [--frames N] [--width W] [--height H] [--learn N] [--threshold SIGMAS]\n"
-    "       [--gray] [--no-shadows] [--no-adaptive] [--dump DIR]";
+    "       [--gray] [--no-shadows] [--no-adaptive] [--texture-sigmas X] [--texture-contrast X]\n"
+    "       [--dump DIR]";
 int runSilhouetteCommand(int argc, char** argv);
 
 inline constexpr const char* kCalibrationUsage =
-    "calibration [--cameras N] [--views N] [--noise PX] [--seed S] [--board checkerboard|charuco]";
+    "calibration [--cameras N] [--views N] [--noise PX] [--seed S] [--board checkerboard|charuco]\n"
+    "       [--cols N] [--rows N] [--square M] [--marker M] [--dictionary 5X5_100] [--width W]\n"
+    "       [--height H] [--write-images DIR]";
 int runCalibrationCommand(int argc, char** argv);
 
 }  // namespace mocap
