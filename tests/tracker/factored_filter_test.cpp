@@ -151,6 +151,19 @@ segments:
   EXPECT_GT(handError(FilterOptions::Injection::kDof), 0.2);
 }
 
+TEST(FactoredFilter, OptionNamesAreParsedAndBadOnesNamed) {
+  EXPECT_EQ(parseInjection("segment"), FilterOptions::Injection::kSegment);
+  EXPECT_EQ(parseInjection("dof"), FilterOptions::Injection::kDof);
+  EXPECT_EQ(parseLookahead("body"), FilterOptions::Lookahead::kBody);
+  try {
+    parseInjection("limb");
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'limb'"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(parseLookahead("everything"), std::invalid_argument);
+}
+
 TEST(FactoredFilter, FrozenDofsGetNoLayersAndKeepTheirValue) {
   HandScene scene;
   const Eigen::VectorXd truth = generateMotion(scene.model, 1, 2)[0];

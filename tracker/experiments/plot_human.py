@@ -18,7 +18,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 
-METHOD_STYLE = {"factored": "o-", "condensation": "s--", "annealed": "^:"}
+METHOD_STYLE = {"factored": "o-", "factored (paper injection)": "o:", "condensation": "s--",
+                "annealed": "^:"}
 
 
 def load_panels(title, path):
