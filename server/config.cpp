@@ -189,7 +189,7 @@ class ConfigParser {
     }
 
     if (const YAML::Node tracker = root["tracker"]) {
-      onlyKeys(tracker, "tracker", {"method", "evaluations", "threads", "injection", "seed"});
+      onlyKeys(tracker, "tracker", {"method", "evaluations", "threads", "injection", "inject", "seed"});
       TrackerSettings& t = config.tracker;
       if (tracker["method"]) {
         t.method = text(tracker["method"], "tracker.method");
@@ -202,6 +202,11 @@ class ConfigParser {
       if (tracker["threads"]) t.threads = integer(tracker["threads"], "tracker.threads", 1, 256);
       if (tracker["injection"])
         t.injection = number(tracker["injection"], "tracker.injection", 0, 0.99);
+      if (tracker["inject"]) {
+        t.inject = text(tracker["inject"], "tracker.inject");
+        if (t.inject != "dof" && t.inject != "segment")
+          fail(tracker["inject"], "tracker.inject", "expected dof or segment, got '" + t.inject + "'");
+      }
       if (tracker["seed"])
         t.seed = static_cast<uint64_t>(integer(tracker["seed"], "tracker.seed", 0, 2'000'000'000));
     }

@@ -27,6 +27,8 @@ struct TrackerSettings {
   int evaluations = 375;            // particle evaluations per frame
   int threads = 1;                  // worker threads of the filter (counting the tracker thread)
   double injection = 0.02;          // share of candidates from the static distribution
+  std::string inject = "dof";       // what an injected candidate redraws: "dof" (the paper) or
+                                    // "segment" (all of a segment's angles; better for people)
   uint64_t seed = 1;                // the filters are deterministic for a seed
 };
 

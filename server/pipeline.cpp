@@ -38,6 +38,7 @@ FilterOptions filterOptions(const TrackerSettings& settings) {
   FilterOptions options;
   options.evaluations_per_frame = settings.evaluations;
   options.injection_share = settings.injection;
+  options.injection = parseInjection(settings.inject);
   options.seed = settings.seed;
   return options;
 }

@@ -40,6 +40,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
               HasSubstr("test.yaml:4: tracker.evaluations: must be between 1 and"));
   EXPECT_THAT(errorOf(cameras + "tracker: {method: magic}\n"),
               HasSubstr("tracker.method: expected factored, condensation or annealed"));
+  EXPECT_THAT(errorOf(cameras + "tracker: {inject: limbs}\n"),
+              HasSubstr("tracker.inject: expected dof or segment, got 'limbs'"));
   EXPECT_THAT(errorOf(cameras + "listen: nowhere\n"), HasSubstr("test.yaml:3: listen:"));
   EXPECT_THAT(errorOf(cameras + "trackr: {}\n"), HasSubstr("trackr: unknown key"));
   EXPECT_THAT(errorOf("cameras:\n  - {driver: nosuch}\n"),
