@@ -160,10 +160,10 @@ class ConfigParser {
   ServerConfig parse(const YAML::Node& root) const {
     ServerConfig config;
     config.source = source_;
-    onlyKeys(root, "",
-             {"cameras", "calibration", "body_model", "tracker", "sync", "listen",
-              "recording_directory", "background_directory", "silhouettes", "tls", "auth",
-              "log_level"});
+    onlyKeys(
+        root, "",
+        {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "recording_directory",
+         "background_directory", "silhouettes", "tls", "auth", "log_level"});
 
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
@@ -189,7 +189,8 @@ class ConfigParser {
     }
 
     if (const YAML::Node tracker = root["tracker"]) {
-      onlyKeys(tracker, "tracker", {"method", "evaluations", "threads", "injection", "inject", "seed"});
+      onlyKeys(tracker, "tracker",
+               {"method", "evaluations", "threads", "injection", "inject", "seed"});
       TrackerSettings& t = config.tracker;
       if (tracker["method"]) {
         t.method = text(tracker["method"], "tracker.method");
@@ -205,7 +206,8 @@ class ConfigParser {
       if (tracker["inject"]) {
         t.inject = text(tracker["inject"], "tracker.inject");
         if (t.inject != "dof" && t.inject != "segment")
-          fail(tracker["inject"], "tracker.inject", "expected dof or segment, got '" + t.inject + "'");
+          fail(tracker["inject"], "tracker.inject",
+               "expected dof or segment, got '" + t.inject + "'");
       }
       if (tracker["seed"])
         t.seed = static_cast<uint64_t>(integer(tracker["seed"], "tracker.seed", 0, 2'000'000'000));

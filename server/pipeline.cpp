@@ -148,8 +148,8 @@ void Pipeline::loadBackgrounds() {
     const std::string path = backgroundFile(c);
     std::error_code error;
     if (!std::filesystem::exists(path, error)) continue;
-    const std::string fallback = "; cameras[" + std::to_string(c) +
-                                 "] is thresholded until the next CaptureBackground";
+    const std::string fallback =
+        "; cameras[" + std::to_string(c) + "] is thresholded until the next CaptureBackground";
     BackgroundModel model;
     try {
       model = loadBackground(path);
@@ -161,13 +161,12 @@ void Pipeline::loadBackgrounds() {
     const CameraConfig& camera = cameras_[c].config;
     const int channels = camera.pixel_format == "GREY" ? 1 : model.channels();
     if (model.size() != cv::Size(camera.width, camera.height) || model.channels() != channels) {
-      warnBackground("background file unusable: " + path + ": it is " +
-                     std::to_string(model.size().width) + "x" +
-                     std::to_string(model.size().height) + " with " +
-                     std::to_string(model.channels()) + " channel(s) but cameras[" +
-                     std::to_string(c) + "] is " + std::to_string(camera.width) + "x" +
-                     std::to_string(camera.height) +
-                     (camera.pixel_format == "GREY" ? " gray" : "") + fallback);
+      warnBackground(
+          "background file unusable: " + path + ": it is " + std::to_string(model.size().width) +
+          "x" + std::to_string(model.size().height) + " with " + std::to_string(model.channels()) +
+          " channel(s) but cameras[" + std::to_string(c) + "] is " + std::to_string(camera.width) +
+          "x" + std::to_string(camera.height) + (camera.pixel_format == "GREY" ? " gray" : "") +
+          fallback);
       if (!ground_truth_)
         setSilhouetteSource(c, "threshold (" + path + " does not fit this camera)");
       continue;
@@ -369,10 +368,10 @@ void Pipeline::saveBackgrounds(std::vector<BackgroundModel> models, int frames,
     }
   }
   if (!failures.empty()) {
-    endCapture(done, {BackgroundError::kNotSaved,
-                      "the background is learned and in use but a restart will not have it: " +
-                          failures,
-                      frames});
+    endCapture(done,
+               {BackgroundError::kNotSaved,
+                "the background is learned and in use but a restart will not have it: " + failures,
+                frames});
     return;
   }
   logInfo() << "backgrounds saved in " << config_.background_directory;
@@ -435,8 +434,9 @@ void Pipeline::maskLoop() {
       if (extractors_[c] && !extractors_[c]->extract(image)) {
         // A background of another format (the camera's pixel format changed since it was saved):
         // thresholding beats silhouettes frozen at the last good frame.
-        logWarning() << "camera " << c << ": silhouette extraction failed: "
-                     << extractors_[c]->lastError() << "; thresholded until the next capture";
+        logWarning() << "camera " << c
+                     << ": silhouette extraction failed: " << extractors_[c]->lastError()
+                     << "; thresholded until the next capture";
         setSilhouetteSource(c,
                             "threshold (background unusable: " + extractors_[c]->lastError() + ")");
         extractors_[c].reset();

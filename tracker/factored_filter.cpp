@@ -5,10 +5,11 @@
 // spaced samples of the DOF's uniform proposal (deterministic interval sampling), a small share of
 // candidates drawn instead from the DOF's whole range (static particle injection; optionally all
 // of a segment's angles at once, FilterOptions::Injection), weighs each candidate by its segment's
-// masked-chain likelihood and keeps the K best without uniformizing their weights. A particle remembers, per segment, the node holding that segment's world pose and
-// footprints, so later layers extend its chain and mask what it already explains. Optionally a
-// layer ranks its candidates by a look-ahead over more of the body (FilterOptions::Lookahead) while
-// each particle's weight keeps only the paper's factor.
+// masked-chain likelihood and keeps the K best without uniformizing their weights. A particle
+// remembers, per segment, the node holding that segment's world pose and footprints, so later
+// layers extend its chain and mask what it already explains. Optionally a layer ranks its
+// candidates by a look-ahead over more of the body (FilterOptions::Lookahead) while each particle's
+// weight keeps only the paper's factor.
 #include <algorithm>
 #include <cmath>
 #include <numeric>

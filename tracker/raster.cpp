@@ -108,8 +108,8 @@ int monotoneChain(Eigen::Vector2d* points, int n, Eigen::Vector2d* hull) {
   for (int i = 1; i < n; ++i) {
     const Eigen::Vector2d p = points[i];
     int j = i;
-    for (; j > 0 && (p.x() < points[j - 1].x() ||
-                     (p.x() == points[j - 1].x() && p.y() < points[j - 1].y()));
+    for (; j > 0 &&
+           (p.x() < points[j - 1].x() || (p.x() == points[j - 1].x() && p.y() < points[j - 1].y()));
          --j)
       points[j] = points[j - 1];
     points[j] = p;

@@ -36,8 +36,7 @@ class SilhouetteMask {
     // Foreground pixels in columns [0, x), 0 <= x <= width.
     int before(int x) const {
       const Word& w = words_[x >> 6];
-      return static_cast<int>(w.before) +
-             std::popcount(w.bits & ((uint64_t{1} << (x & 63)) - 1));
+      return static_cast<int>(w.before) + std::popcount(w.bits & ((uint64_t{1} << (x & 63)) - 1));
     }
     int count(int x0, int x1) const { return before(x1) - before(x0); }
 

@@ -18,16 +18,19 @@ int runCalibrate(int argc, char** argv) {
                           "session", "every", "floor-view", "out", "min-views"},
                          {});
   if (args.has("images") == args.has("session"))
-    throw std::invalid_argument("give exactly one of --images DIR and --session DIR\nusage: mocapctl " +
-                                std::string(kCalibrateUsage));
+    throw std::invalid_argument(
+        "give exactly one of --images DIR and --session DIR\nusage: mocapctl " +
+        std::string(kCalibrateUsage));
   for (const char* required : {"board", "cols", "rows", "square", "out"})
     if (!args.has(required))
       throw std::invalid_argument(std::string("--") + required + " is required\nusage: mocapctl " +
                                   kCalibrateUsage);
   // A guessed marker size would scale nothing but could silently mismatch the print: required.
   if (args.text("board", "") == "charuco" && !args.has("marker"))
-    throw std::invalid_argument("--marker is required for --board charuco (printed marker side, "
-                                "metres)\nusage: mocapctl " + std::string(kCalibrateUsage));
+    throw std::invalid_argument(
+        "--marker is required for --board charuco (printed marker side, "
+        "metres)\nusage: mocapctl " +
+        std::string(kCalibrateUsage));
   const mocap::BoardSpec board = mocap::boardFromFlags(args, mocap::BoardSpec{});
 
   mocap::CalibrationOptions options;

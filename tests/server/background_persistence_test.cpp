@@ -131,7 +131,7 @@ TEST_F(BackgroundPersistenceTest, CapturedBackgroundSurvivesRestart) {
     EXPECT_EQ(fs::path(files[0]).filename(), "fake-scene_0.background.yml");
     EXPECT_EQ(fs::path(files[1]).filename(), "fake-scene_1.background.yml");
     EXPECT_EQ(filesIn(dir), (std::set<std::string>{"fake-scene_0.background.yml",
-                                                     "fake-scene_1.background.yml"}));
+                                                   "fake-scene_1.background.yml"}));
     EXPECT_EQ(server.pipeline().status().cameras[1].silhouettes, "background captured");
     server.shutdown();
   }

@@ -114,9 +114,10 @@ segments:
   Rig rig;
   for (int i = 0; i < 2; ++i) {
     const double azimuth = (30.0 + 90.0 * i) * M_PI / 180;
-    rig.push_back(CameraModel::lookAt("cam" + std::to_string(i),
-                                      Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), 0.3),
-                                      Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 240, 180, 200));
+    rig.push_back(
+        CameraModel::lookAt("cam" + std::to_string(i),
+                            Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), 0.3),
+                            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 240, 180, 200));
   }
   Eigen::VectorXd truth(2), start(2);
   truth << 100 * M_PI / 180, 60 * M_PI / 180;

@@ -193,8 +193,8 @@ TEST(Raster, SpansEqualThePlainScanOfTheHullBitForBit) {
     s.length = 0.05 + 0.04 * u(rng);
     s.radius_start = 0.01 + 0.009 * u(rng);
     s.radius_end = trial % 5 == 0 ? 0.0005 : 0.008 + 0.007 * u(rng);
-    s.radii = Eigen::Vector3d(0.03 + 0.02 * u(rng), 0.01 + 0.009 * u(rng),
-                              0.0005 + 0.0004 * u(rng));
+    s.radii =
+        Eigen::Vector3d(0.03 + 0.02 * u(rng), 0.01 + 0.009 * u(rng), 0.0005 + 0.0004 * u(rng));
     Eigen::Isometry3d pose = at(0.5 * u(rng), 0.4 * u(rng), 0.8 + 0.3 * u(rng));
     const Eigen::Vector3d turn_axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
     pose.rotate(Eigen::AngleAxisd(3 * u(rng), turn_axis));

@@ -196,8 +196,15 @@ Intrinsics calibrateIntrinsics(const CameraObservations& observed, const BoardSp
     // whole image in many views; modern lenses have little of it. k3 needs many views too.
     const int flags = (options.estimate_tangential ? 0 : cv::CALIB_ZERO_TANGENT_DIST) |
                       (names.size() < 10 ? cv::CALIB_FIX_K3 : 0);
-    result.free = {true, true, true, true, true, true, options.estimate_tangential,
-                   options.estimate_tangential, (flags & cv::CALIB_FIX_K3) == 0};
+    result.free = {true,
+                   true,
+                   true,
+                   true,
+                   true,
+                   true,
+                   options.estimate_tangential,
+                   options.estimate_tangential,
+                   (flags & cv::CALIB_FIX_K3) == 0};
     result.rms = cv::calibrateCamera(
         object, image, camera.image_size, k, distortion, rvecs, tvecs, flags,
         cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-12));
@@ -259,8 +266,7 @@ void bundleAdjust(std::vector<Pose>& cameras, std::vector<Pose>& boards,
                   const std::vector<std::array<bool, kIntrinsicParameters>>& free_intrinsics,
                   int fixed_camera, int fixed_board, int iterations) {
   const int camera_count = static_cast<int>(cameras.size());
-  const int parameters =
-      kCameraParameters * camera_count + 6 * static_cast<int>(boards.size());
+  const int parameters = kCameraParameters * camera_count + 6 * static_cast<int>(boards.size());
   const int board_base = kCameraParameters * camera_count;
   auto evaluate = [&](const std::vector<Pose>& cams, const std::vector<Pose>& brds,
                       const std::vector<Intrinsics>& ins, Eigen::MatrixXd* jtj,
@@ -345,7 +351,8 @@ void bundleAdjust(std::vector<Pose>& cameras, std::vector<Pose>& boards,
       }
       for (int b = 0; b < static_cast<int>(boards.size()); ++b)
         apply(next_boards[b], board_base + 6 * b);
-      const double next_cost = evaluate(next_cameras, next_boards, next_intrinsics, nullptr, nullptr);
+      const double next_cost =
+          evaluate(next_cameras, next_boards, next_intrinsics, nullptr, nullptr);
       if (next_cost < cost) {
         cameras = std::move(next_cameras);
         boards = std::move(next_boards);

@@ -95,8 +95,8 @@ cv::Mat renderView(const cv::Mat& texture, const cv::Matx33d& texture_to_board,
                                  cv::Point2d(0, s * th), cv::Point2d(tw, s * th)}) {
       const cv::Point2d texel(p.x - 0.5, p.y - 0.5);  // texture edge in pixel-centre coordinates
       const cv::Vec3d board = texture_to_board * cv::Vec3d(texel.x, texel.y, 1);
-      const Eigen::Vector3d in_camera = board_to_camera * Eigen::Vector3d(board[0] / board[2],
-                                                                         board[1] / board[2], 0);
+      const Eigen::Vector3d in_camera =
+          board_to_camera * Eigen::Vector3d(board[0] / board[2], board[1] / board[2], 0);
       if (in_camera.z() < CameraModel::kMinDepth) return image;  // not expected for shown views
       const Eigen::Vector2d pixel = camera.projectCameraPoint(in_camera);
       x0 = std::min(x0, pixel.x());
@@ -105,11 +105,11 @@ cv::Mat renderView(const cv::Mat& texture, const cv::Matx33d& texture_to_board,
       y1 = std::max(y1, pixel.y());
     }
   }
-  const cv::Rect box = cv::Rect(cv::Point(static_cast<int>(std::floor(x0)) - 3,
-                                          static_cast<int>(std::floor(y0)) - 3),
-                                cv::Point(static_cast<int>(std::ceil(x1)) + 4,
-                                          static_cast<int>(std::ceil(y1)) + 4)) &
-                       cv::Rect(cv::Point(0, 0), size);
+  const cv::Rect box =
+      cv::Rect(
+          cv::Point(static_cast<int>(std::floor(x0)) - 3, static_cast<int>(std::floor(y0)) - 3),
+          cv::Point(static_cast<int>(std::ceil(x1)) + 4, static_cast<int>(std::ceil(y1)) + 4)) &
+      cv::Rect(cv::Point(0, 0), size);
   if (box.empty()) return image;
 
   // Sample (i, j) of pixel (x, y) sits at (x - 0.5 + (i + 0.5) / S, ...); its ideal position is
@@ -275,8 +275,8 @@ RenderedCalibration renderCalibrationViews(const CalibrationExperimentConfig& co
         const cv::Point3f c = out.board.corner(detection.ids[i]);
         Eigen::Vector2d truth;
         camera.project(board_to_world * Eigen::Vector3d(c.x, c.y, c.z), truth);
-        const double error = std::hypot(truth.x() - detection.pixels[i].x,
-                                        truth.y() - detection.pixels[i].y);
+        const double error =
+            std::hypot(truth.x() - detection.pixels[i].x, truth.y() - detection.pixels[i].y);
         detector_squared += error * error;
         out.detector_max_px = std::max(out.detector_max_px, error);
       }

@@ -113,8 +113,10 @@ void writeOverlays(const std::string& dir, int frame, const std::vector<Silhouet
     std::vector<std::vector<cv::Point>> outline;
     cv::findContours(estimated[c], outline, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
     cv::drawContours(image, outline, -1, cv::Scalar(0, 0, 255), 1);
-    const std::string path = dir + "/frame" + std::to_string(frame) + "_cam" + std::to_string(c) + ".png";
-    if (!cv::imwrite(path, image)) throw std::runtime_error("--overlay: cannot write '" + path + "'");
+    const std::string path =
+        dir + "/frame" + std::to_string(frame) + "_cam" + std::to_string(c) + ".png";
+    if (!cv::imwrite(path, image))
+      throw std::runtime_error("--overlay: cannot write '" + path + "'");
   }
 }
 
@@ -175,7 +177,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     trace.open(config.trace_path);
     if (!trace) throw std::runtime_error("--trace: cannot write '" + config.trace_path + "'");
     trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,root_yaw_error_deg\n";
-    scorer = std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
+    scorer =
+        std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
   }
   const int root_yaw = model.dofIndex("root_yaw");
   for (int f = 0; f < frames; ++f) {
@@ -204,7 +207,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       sum += e;
     }
     frame_error.push_back(sum / true_points.size());
-    if (!config.overlay_dir.empty() && f % 10 == 0) writeOverlays(config.overlay_dir, f, masks, renderer, estimate.q);
+    if (!config.overlay_dir.empty() && f % 10 == 0)
+      writeOverlays(config.overlay_dir, f, masks, renderer, estimate.q);
     if (scorer) {
       trace << f << ',' << frame_error.back() << ','
             << logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0)) << ','
@@ -257,9 +261,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
 
 int runHumanCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
-                  {"motion", "method", "evals", "cameras", "frames", "seed", "dofs", "noise",
-                   "start-offset", "threads", "model", "injection", "keep", "samples", "layers",
-                   "lookahead", "estimate", "trace", "overlay", "inject"},
+                  {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
+                   "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
+                   "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");

@@ -43,7 +43,7 @@ struct HumanExperimentConfig {
   int threads = 0;
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
-  std::string overlay_dir;          // every 10th frame: truth vs estimate PNGs per camera; empty: none
+  std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none
   FilterOptions filter;             // evaluations and seed come from the fields above
 };
 

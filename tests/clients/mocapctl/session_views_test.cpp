@@ -22,9 +22,9 @@ namespace fs = std::filesystem;
 class SessionViewsTest : public testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() /
-            ("mocap_session_views_" + std::to_string(::getpid()) + "_" +
-             testing::UnitTest::GetInstance()->current_test_info()->name());
+    root_ =
+        fs::temp_directory_path() / ("mocap_session_views_" + std::to_string(::getpid()) + "_" +
+                                     testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(root_);
     fs::create_directories(root_);
   }
@@ -32,8 +32,8 @@ class SessionViewsTest : public testing::Test {
 
   // Renders the views (no extra corner noise) and records them as session "session": one frame
   // set per view, in view-name order. Returns the set sequence number of each view.
-  std::map<std::string, uint64_t> recordRenderedViews(const mocap::CalibrationExperimentConfig& config,
-                                                      mocap::RenderedCalibration& rendered) {
+  std::map<std::string, uint64_t> recordRenderedViews(
+      const mocap::CalibrationExperimentConfig& config, mocap::RenderedCalibration& rendered) {
     rendered = mocap::renderCalibrationViews(config);
     // A camera only has the views whose board it sees whole; the set then lacks its frame.
     std::set<std::string> view_names;
@@ -91,7 +91,8 @@ TEST_F(SessionViewsTest, CalibratesRenderedCamerasFromARecordedSession) {
   const auto sequence = recordRenderedViews(config, rendered);
 
   std::vector<mocap::RejectedView> rejected;
-  const auto cameras = mocapctl::detectSession((root_ / "session").string(), rendered.board, 1, rejected);
+  const auto cameras =
+      mocapctl::detectSession((root_ / "session").string(), rendered.board, 1, rejected);
   ASSERT_EQ(cameras.size(), 2u);
   EXPECT_EQ(cameras[0].name, rendered.truth[0].name);
   // The same views are found as the experiment's own detection of the images found.
@@ -117,9 +118,11 @@ TEST_F(SessionViewsTest, EverySecondSetHalvesTheViews) {
   mocap::RenderedCalibration rendered;
   recordRenderedViews(config, rendered);
   std::vector<mocap::RejectedView> rejected;
-  const auto all = mocapctl::detectSession((root_ / "session").string(), rendered.board, 1, rejected);
+  const auto all =
+      mocapctl::detectSession((root_ / "session").string(), rendered.board, 1, rejected);
   rejected.clear();
-  const auto half = mocapctl::detectSession((root_ / "session").string(), rendered.board, 2, rejected);
+  const auto half =
+      mocapctl::detectSession((root_ / "session").string(), rendered.board, 2, rejected);
   for (std::size_t c = 0; c < all.size(); ++c) {
     for (const auto& [view, detection] : half[c].views) {
       EXPECT_EQ(std::stoul(view) % 2, 0u) << view;

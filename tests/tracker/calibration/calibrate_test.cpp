@@ -76,8 +76,8 @@ TEST(Calibrate, RenderedCornersMatchProjection) {
                            static_cast<float>(w.z()));
       }
       std::vector<cv::Point2f> projected;
-      cv::projectPoints(world, r, t, k, std::vector<double>(camera.distortion.begin(),
-                                                            camera.distortion.end()),
+      cv::projectPoints(world, r, t, k,
+                        std::vector<double>(camera.distortion.begin(), camera.distortion.end()),
                         projected);
       for (std::size_t i = 0; i < projected.size(); ++i) {
         const double error = cv::norm(projected[i] - detection.pixels[i]);
@@ -308,7 +308,7 @@ TEST(CalibrateCharuco, DetectionProblems) {
   };
   EXPECT_EQ(problem({0, 1, 2, 3, 4, 9}), "");
   EXPECT_NE(problem({0, 1, 2, 3, 4}).find("only 5 board corners (need 6)"), std::string::npos);
-  EXPECT_NE(problem({0, 9, 18, 27, 36, 45}).find("one line"), std::string::npos);  // diagonal
+  EXPECT_NE(problem({0, 9, 18, 27, 36, 45}).find("one line"), std::string::npos);   // diagonal
   EXPECT_NE(problem({3, 11, 19, 27, 35, 43}).find("one line"), std::string::npos);  // column
   EXPECT_NE(problem({0, 1, 2, 3, 4, 4}).find("corner id 4 found twice"), std::string::npos);
   EXPECT_NE(problem({0, 1, 2, 3, 4, 48}).find("corner id 48 is not on a 9x7 board"),
@@ -330,8 +330,8 @@ std::string flagError(std::vector<std::string> words) {
 }
 
 TEST(CalibrateCharuco, BoardFlagsAreCheckedByName) {
-  const std::vector<std::string> charuco = {"--board", "charuco", "--cols", "7", "--rows", "5",
-                                            "--square", "0.11"};
+  const std::vector<std::string> charuco = {"--board", "charuco", "--cols",   "7",
+                                            "--rows",  "5",       "--square", "0.11"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> words = charuco;
     words.insert(words.end(), extra.begin(), extra.end());
@@ -346,8 +346,8 @@ TEST(CalibrateCharuco, BoardFlagsAreCheckedByName) {
                        "--marker", "0.03", "--dictionary", "4X4_50"})
                 .find("--dictionary 4X4_50 holds 50 markers but a 12x10 ChArUco board needs 60"),
             std::string::npos);
-  EXPECT_NE(flagError({"--board", "checkerboard", "--cols", "9", "--rows", "6", "--square",
-                       "0.06", "--marker", "0.04"})
+  EXPECT_NE(flagError({"--board", "checkerboard", "--cols", "9", "--rows", "6", "--square", "0.06",
+                       "--marker", "0.04"})
                 .find("--marker applies to --board charuco only"),
             std::string::npos);
   EXPECT_NE(flagError({"--board", "charucco"}).find("--board 'charucco'"), std::string::npos);

@@ -63,8 +63,8 @@ TEST(BackgroundModel, SaveLoadRoundTrip) {
 }
 
 TEST(BackgroundModel, SaveReplacesTheFileWholeAndLeavesNoTemporary) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("mocap_bg_atomic_" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("mocap_bg_atomic_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "camera.background.yml").string();
