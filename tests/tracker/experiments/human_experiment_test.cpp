@@ -1,0 +1,51 @@
+// The human experiment's scoring: per-limb errors point at the limb that is wrong, and bad flags
+// are refused with their names.
+#include "tracker/experiments/human_experiment.h"
+
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace mocap {
+namespace {
+
+const std::string kWalk = std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh";
+
+TEST(HumanExperiment, PerLimbErrorsPointAtTheMisplacedArm) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config;
+  config.motion_path = kWalk;
+  config.frames = 1;
+  config.evaluations = 200;  // one frame cannot bring a 60-degree arm back (20-degree speed limit)
+  config.cameras = 2;
+  config.threads = 1;
+  config.start_offset = "arm60";
+  const nlohmann::json out = runHumanExperiment(config);
+  const nlohmann::json& limb = out["per_limb_mm"];
+  ASSERT_TRUE(limb.contains("left_arm")) << limb.dump();
+  const double left_arm = limb["left_arm"].get<double>();
+  EXPECT_GT(left_arm, 100.0);
+  for (const char* other : {"right_arm", "left_leg", "right_leg"})
+    EXPECT_GT(left_arm, 3 * limb[other].get<double>()) << other << ": " << limb.dump();
+  EXPECT_EQ(out["limb_lost_frames"]["left_arm"].get<int>(), 1);
+  EXPECT_TRUE(out["arm_recovery_frames"].is_null());  // not back within the one frame
+}
+
+TEST(HumanExperiment, BadOptionsAreNamed) {
+  HumanExperimentConfig config;
+  config.motion_path = kWalk;
+  config.overlay_dir = "/no/such/directory";
+  try {
+    runHumanExperiment(config);
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--overlay"), std::string::npos) << e.what();
+  }
+  config.overlay_dir.clear();
+  config.noise = "fog";
+  EXPECT_THROW(runHumanExperiment(config), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mocap
