@@ -164,7 +164,7 @@ TEST_F(BackgroundPersistenceTest, CapturedBackgroundSurvivesRestart) {
   // from the first on (extraction is deterministic, adaptation included), and not thresholding's.
   std::vector<SilhouetteExtractor> offline;
   for (const BackgroundModel& model : saved) offline.emplace_back(model);
-  long differing = 0, differing_from_threshold = 0, foreground = 0;
+  long differing = 0, differing_from_threshold = 0;
   for (const MaskRecorder::Sample& sample : samples) {
     for (std::size_t c = 0; c < sample.masks.size(); ++c) {
       if (sample.images[c].empty()) continue;
@@ -172,15 +172,14 @@ TEST_F(BackgroundPersistenceTest, CapturedBackgroundSurvivesRestart) {
       differing += cv::countNonZero(sample.masks[c] != offline[c].foreground());
       differing_from_threshold +=
           cv::countNonZero(sample.masks[c] != thresholded(sample.images[c]));
-      foreground += cv::countNonZero(sample.masks[c]);
     }
   }
   EXPECT_EQ(differing, 0);
   // Not a trivial agreement: thresholding this scene (a mid-grey textured wall) marks a large part
-  // of every image, and the background leaves some foreground (the fake scene has no empty frame,
-  // so the capture learned the hand where it was; how much of it is found is not tested here).
+  // of every image. (How much of the hand the background finds is not tested: the fake scene has
+  // no empty frame, so the capture learned the hand where it was, and whether it has moved away
+  // by the restart depends on timing.)
   EXPECT_GT(differing_from_threshold, 20 * 2 * 10'000);
-  EXPECT_GT(foreground, 0);
   fs::remove_all(dir);
 }
 
@@ -255,9 +254,15 @@ TEST_F(BackgroundPersistenceTest, UnusableFilesAreNamedAndThresholded) {
   const std::vector<MaskRecorder::Sample> samples = recorder.take(std::chrono::seconds(30));
   server.shutdown();
   ASSERT_EQ(samples.size(), 10u);
-  for (const MaskRecorder::Sample& sample : samples)
-    for (std::size_t c = 0; c < sample.masks.size(); ++c)
+  int compared = 0;
+  for (const MaskRecorder::Sample& sample : samples) {
+    for (std::size_t c = 0; c < sample.masks.size(); ++c) {
+      if (sample.images[c].empty()) continue;  // the camera missed this set (a loaded machine)
       EXPECT_EQ(cv::countNonZero(sample.masks[c] != thresholded(sample.images[c])), 0);
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 10);
   // The files are reported, not removed or rewritten.
   EXPECT_EQ(filesIn(dir).size(), 3u);
   fs::remove_all(dir);
