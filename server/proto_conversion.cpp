@@ -108,6 +108,7 @@ void cameraStatusToProto(const OpenedCamera& camera, const CameraRuntimeStatus& 
                                    : v1::CAMERA_STATE_STALLED);
   out.set_measured_fps(status.measured_fps);
   out.set_frames_received(status.sync.frames_received);
+  out.set_silhouettes(status.silhouettes);
   v1::CameraDrops* drops = out.mutable_drops();
   drops->set_lost_by_driver(status.sync.frames_lost_by_driver);
   drops->set_late(status.sync.droppedBy(DropCause::kLate));

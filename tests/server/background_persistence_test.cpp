@@ -250,7 +250,13 @@ TEST_F(BackgroundPersistenceTest, UnusableFilesAreNamedAndThresholded) {
   grpc::ClientContext context;
   v1::Status daemon_status;
   ASSERT_TRUE(stub->GetStatus(&context, {}, &daemon_status).ok());
-  EXPECT_EQ(daemon_status.cameras_size(), 2);
+  // A client sees the same as the pipeline: each camera's source and the start-up warnings.
+  ASSERT_EQ(daemon_status.cameras_size(), 2);
+  EXPECT_THAT(daemon_status.cameras(0).silhouettes(), HasSubstr("threshold (" + file0));
+  EXPECT_THAT(daemon_status.cameras(1).silhouettes(), HasSubstr("threshold (" + file1));
+  ASSERT_EQ(daemon_status.background_warnings_size(), 3);
+  EXPECT_THAT(daemon_status.background_warnings(2),
+              HasSubstr("fake-scene_7.background.yml: no configured camera saves to it"));
   const std::vector<MaskRecorder::Sample> samples = recorder.take(std::chrono::seconds(30));
   server.shutdown();
   ASSERT_EQ(samples.size(), 10u);
