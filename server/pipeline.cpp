@@ -125,6 +125,7 @@ std::string Pipeline::backgroundFile(std::size_t camera) const {
 }
 
 void Pipeline::setSilhouetteSource(std::size_t camera, std::string source) {
+  if (ground_truth_) return;  // the scene's true silhouettes are used whatever the background
   std::lock_guard lock(silhouette_mutex_);
   silhouette_sources_[camera] = std::move(source);
 }
@@ -155,7 +156,7 @@ void Pipeline::loadBackgrounds() {
       model = loadBackground(path);
     } catch (const std::exception& e) {
       warnBackground("background file unusable: " + std::string(e.what()) + fallback);
-      if (!ground_truth_) setSilhouetteSource(c, "threshold (" + path + " unusable)");
+      setSilhouetteSource(c, "threshold (" + path + " unusable)");
       continue;
     }
     const CameraConfig& camera = cameras_[c].config;
@@ -167,26 +168,21 @@ void Pipeline::loadBackgrounds() {
           " channel(s) but cameras[" + std::to_string(c) + "] is " + std::to_string(camera.width) +
           "x" + std::to_string(camera.height) + (camera.pixel_format == "GREY" ? " gray" : "") +
           fallback);
-      if (!ground_truth_)
-        setSilhouetteSource(c, "threshold (" + path + " does not fit this camera)");
+      setSilhouetteSource(c, "threshold (" + path + " does not fit this camera)");
       continue;
     }
     extractors_[c] = std::make_unique<SilhouetteExtractor>(std::move(model));
     logInfo() << "cameras[" << c << "]: background loaded from " << path;
-    if (!ground_truth_) setSilhouetteSource(c, "background loaded from " + path);
+    setSilhouetteSource(c, "background loaded from " + path);
   }
   // A file no camera claims is most likely a camera since removed or renamed: said, not deleted.
+  std::string known;
+  for (const std::string& file : expected) known += (known.empty() ? "" : ", ") + file;
   std::error_code error;
   for (const auto& entry :
        std::filesystem::directory_iterator(config_.background_directory, error)) {
     const std::string name = entry.path().filename().string();
-    const std::string suffix = kBackgroundSuffix;
-    if (name.size() <= suffix.size() || name.front() == '.' ||
-        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0 ||
-        expected.count(name))
-      continue;
-    std::string known;
-    for (const std::string& file : expected) known += (known.empty() ? "" : ", ") + file;
+    if (name.front() == '.' || !name.ends_with(kBackgroundSuffix) || expected.count(name)) continue;
     warnBackground("background file ignored: " + entry.path().string() +
                    ": no configured camera saves to it (the cameras' files are " + known + ")");
   }
@@ -341,8 +337,7 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
     return true;
   }
   extractors_ = std::move(extractors);
-  for (std::size_t c = 0; c < cameras_.size(); ++c)
-    if (!ground_truth_) setSilhouetteSource(c, "background captured");
+  for (std::size_t c = 0; c < cameras_.size(); ++c) setSilhouetteSource(c, "background captured");
   logInfo() << "background learned from " << capture.frames << " frames per camera";
   if (config_.background_directory.empty()) {
     endCapture(capture.done, {BackgroundError::kNone, "", capture.frames});

@@ -193,6 +193,7 @@ class Pipeline {
   // Saver thread: writes the captured models, then ends the capture.
   void saveBackgrounds(std::vector<BackgroundModel> models, int frames,
                        std::function<void(const BackgroundResult&)> done);
+  // What status() reports as camera's silhouette source; ignored when the scene gives the truth.
   void setSilhouetteSource(std::size_t camera, std::string source);
   void warnBackground(const std::string& warning);
   RecordingStatus recordingStatusLocked() const;

@@ -53,30 +53,42 @@ void BM_CondensationStep375(benchmark::State& state) { filterStep(state, "conden
 BENCHMARK(BM_FactoredStep375)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
 BENCHMARK(BM_CondensationStep375)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
 
-// One particle evaluation of the factored filter: the index middle phalanx against the silhouette
-// minus what the palm and its parent phalanx already explain, in all 3 cameras.
-void BM_SegmentLikelihood(benchmark::State& state) {
+// One particle evaluation of the factored filter: the index middle phalanx (frame 10) against the
+// silhouette minus what the palm and its parent phalanx already explain, in all 3 cameras.
+struct PhalanxSetup {
   HandSetup& s = setup();
-  KinematicsData kin(s.model);
-  forwardKinematics(s.model, kin, s.motion[10]);
-  ShapeRasterizer rasterizer(LikelihoodParams().points_per_circle);
-  const int palm = 0, proximal = s.model.segmentIndex("index_1"), middle = s.model.segmentIndex("index_2");
-  std::vector<std::vector<RowSpan>> storage(3 * s.rig.size(), std::vector<RowSpan>(580));
-  std::vector<std::vector<Footprint>> explained(s.rig.size());
-  for (std::size_t c = 0; c < s.rig.size(); ++c) {
-    explained[c].push_back(rasterizer.rasterize(s.model.segments[palm].shape, kin.world[palm],
-                                                s.rig[c], storage[3 * c].data()));
-    explained[c].push_back(rasterizer.rasterize(s.model.segments[proximal].shape,
-                                                kin.world[proximal], s.rig[c],
-                                                storage[3 * c + 1].data()));
+  KinematicsData kin{s.model};
+  ShapeRasterizer rasterizer{LikelihoodParams().points_per_circle};
+  const int middle = s.model.segmentIndex("index_2");
+  std::vector<std::vector<RowSpan>> storage =
+      std::vector<std::vector<RowSpan>>(3 * s.rig.size(), std::vector<RowSpan>(580));
+  std::vector<std::vector<Footprint>> explained{s.rig.size()};  // palm, proximal phalanx
+  std::vector<Footprint> footprints;                            // the middle phalanx
+  RowSpan* spans[kMaxCameras];                                  // where it is rasterized anew
+
+  PhalanxSetup() {
+    forwardKinematics(s.model, kin, s.motion[10]);
+    const int palm = 0, proximal = s.model.segmentIndex("index_1");
+    for (std::size_t c = 0; c < s.rig.size(); ++c) {
+      for (int k : {palm, proximal})
+        explained[c].push_back(rasterize(k, c, storage[3 * c + (k == palm ? 0 : 1)].data()));
+      spans[c] = storage[3 * c + 2].data();
+      footprints.push_back(rasterize(middle, c, spans[c]));
+    }
   }
-  RowSpan* spans[kMaxCameras];
-  for (std::size_t c = 0; c < s.rig.size(); ++c) spans[c] = storage[3 * c + 2].data();
-  std::vector<Footprint> footprints(s.rig.size());
+  Footprint rasterize(int segment, std::size_t camera, RowSpan* out) {
+    return rasterizer.rasterize(s.model.segments[segment].shape, kin.world[segment], s.rig[camera],
+                                out);
+  }
+};
+
+void BM_SegmentLikelihood(benchmark::State& state) {
+  PhalanxSetup p;
+  std::vector<Footprint> footprints(p.s.rig.size());
   for (auto _ : state) {
     const PixelCounts counts =
-        observeSegment(s.model.segments[middle].shape, kin.world[middle], s.rig, s.frames[10],
-                       rasterizer, spans, footprints.data(), explained);
+        observeSegment(p.s.model.segments[p.middle].shape, p.kin.world[p.middle], p.s.rig,
+                       p.s.frames[10], p.rasterizer, p.spans, footprints.data(), p.explained);
     benchmark::DoNotOptimize(counts);
   }
 }
@@ -85,16 +97,10 @@ BENCHMARK(BM_SegmentLikelihood)->Unit(benchmark::kNanosecond);
 // The two halves of BM_SegmentLikelihood: scan conversion of the phalanx in 3 cameras, and
 // counting its (fixed) footprints against the masked silhouettes.
 void BM_SegmentRasterize(benchmark::State& state) {
-  HandSetup& s = setup();
-  KinematicsData kin(s.model);
-  forwardKinematics(s.model, kin, s.motion[10]);
-  ShapeRasterizer rasterizer(LikelihoodParams().points_per_circle);
-  const int middle = s.model.segmentIndex("index_2");
-  std::vector<RowSpan> storage(580);
+  PhalanxSetup p;
   for (auto _ : state) {
-    for (const CameraModel& camera : s.rig) {
-      const Footprint f = rasterizer.rasterize(s.model.segments[middle].shape, kin.world[middle],
-                                               camera, storage.data());
+    for (std::size_t c = 0; c < p.s.rig.size(); ++c) {
+      const Footprint f = p.rasterize(p.middle, c, p.spans[c]);
       benchmark::DoNotOptimize(f);
     }
   }
@@ -102,29 +108,12 @@ void BM_SegmentRasterize(benchmark::State& state) {
 BENCHMARK(BM_SegmentRasterize)->Unit(benchmark::kNanosecond);
 
 void BM_SegmentCount(benchmark::State& state) {
-  HandSetup& s = setup();
-  KinematicsData kin(s.model);
-  forwardKinematics(s.model, kin, s.motion[10]);
-  ShapeRasterizer rasterizer(LikelihoodParams().points_per_circle);
-  const int palm = 0, proximal = s.model.segmentIndex("index_1");
-  const int middle = s.model.segmentIndex("index_2");
-  std::vector<std::vector<RowSpan>> storage(3 * s.rig.size(), std::vector<RowSpan>(580));
-  std::vector<std::vector<Footprint>> explained(s.rig.size());
-  std::vector<Footprint> footprints;
-  for (std::size_t c = 0; c < s.rig.size(); ++c) {
-    explained[c].push_back(rasterizer.rasterize(s.model.segments[palm].shape, kin.world[palm],
-                                                s.rig[c], storage[3 * c].data()));
-    explained[c].push_back(rasterizer.rasterize(s.model.segments[proximal].shape,
-                                                kin.world[proximal], s.rig[c],
-                                                storage[3 * c + 1].data()));
-    footprints.push_back(rasterizer.rasterize(s.model.segments[middle].shape, kin.world[middle],
-                                              s.rig[c], storage[3 * c + 2].data()));
-  }
+  PhalanxSetup p;
   for (auto _ : state) {
     PixelCounts counts;
-    for (std::size_t c = 0; c < s.rig.size(); ++c)
-      counts += countFootprint(s.frames[10][c], footprints[c], explained[c].data(),
-                               static_cast<int>(explained[c].size()));
+    for (std::size_t c = 0; c < p.s.rig.size(); ++c)
+      counts += countFootprint(p.s.frames[10][c], p.footprints[c], p.explained[c].data(),
+                               static_cast<int>(p.explained[c].size()));
     benchmark::DoNotOptimize(counts);
   }
 }

@@ -117,12 +117,8 @@ TEST_F(BackgroundPersistenceTest, CapturedBackgroundSurvivesRestart) {
     EXPECT_EQ(server.pipeline().status().cameras[0].silhouettes, "threshold");
     ASSERT_TRUE(server.start().ok());
     auto stub = test::connect(server.port());
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-    v1::CaptureBackgroundRequest request;
-    request.set_frames(25);
     v1::CaptureBackgroundResponse response;
-    const grpc::Status status = stub->CaptureBackground(&context, request, &response);
+    const grpc::Status status = test::captureBackground(*stub, 25, response);
     ASSERT_TRUE(status.ok()) << status.error_message();
     EXPECT_EQ(response.frames_used(), 25u);
     // Saved when the RPC answers: one file per camera, named by its id, and no temporary left.
@@ -192,22 +188,15 @@ TEST_F(BackgroundPersistenceTest, UnsavableBackgroundIsInUseButTheRpcSaysSo) {
   ASSERT_TRUE(server.start().ok());
   fs::remove_all(dir);  // gone after start-up: every save must fail
   auto stub = test::connect(server.port());
-  grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-  v1::CaptureBackgroundRequest request;
-  request.set_frames(5);
   v1::CaptureBackgroundResponse response;
-  const grpc::Status status = stub->CaptureBackground(&context, request, &response);
+  const grpc::Status status = test::captureBackground(*stub, 5, response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INTERNAL);
   EXPECT_THAT(status.error_message(), HasSubstr("learned and in use"));
   EXPECT_THAT(status.error_message(),
               HasSubstr(server.pipeline().backgroundFile(0) + ": background model not saved"));
   EXPECT_EQ(server.pipeline().status().cameras[0].silhouettes, "background captured");
   // A second capture is accepted: the failed one is over.
-  grpc::ClientContext again;
-  again.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-  EXPECT_EQ(stub->CaptureBackground(&again, request, &response).error_code(),
-            grpc::StatusCode::INTERNAL);
+  EXPECT_EQ(test::captureBackground(*stub, 5, response).error_code(), grpc::StatusCode::INTERNAL);
   server.shutdown();
   EXPECT_FALSE(fs::exists(dir));
 }

@@ -238,21 +238,15 @@ TEST_F(EndToEndTest, CaptureBackgroundLearnsWhilePosesFlow) {
   auto stub = test::connect(server->port());
   test::PoseCounter poses(*stub);
   {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    v1::CaptureBackgroundRequest request;
-    request.set_frames(10);
     v1::CaptureBackgroundResponse response;
-    const grpc::Status status = stub->CaptureBackground(&context, request, &response);
+    const grpc::Status status =
+        test::captureBackground(*stub, 10, response, std::chrono::seconds(10));
     ASSERT_TRUE(status.ok()) << status.error_message();
     EXPECT_EQ(response.frames_used(), 10u);
   }
   {
-    grpc::ClientContext context;
-    v1::CaptureBackgroundRequest request;
-    request.set_frames(1'000'000);
     v1::CaptureBackgroundResponse response;
-    const grpc::Status status = stub->CaptureBackground(&context, request, &response);
+    const grpc::Status status = test::captureBackground(*stub, 1'000'000, response);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
     EXPECT_THAT(status.error_message(), ::testing::HasSubstr("frames"));
   }

@@ -1,5 +1,5 @@
-// Shared by the server tests: a daemon configuration on the fake scene, a loopback client, and a
-// pose reader that counts what it receives.
+// Shared by the server tests: a daemon configuration on the fake scene, a loopback client, a
+// background capture request, and a pose reader that counts what it receives.
 #pragma once
 
 #include <atomic>
@@ -27,6 +27,17 @@ inline ServerConfig sceneConfig() {
 inline std::unique_ptr<v1::MocapService::Stub> connect(int port) {
   return v1::MocapService::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(port),
                                                        grpc::InsecureChannelCredentials()));
+}
+
+// Asks the daemon to learn the background from `frames` frames, waiting at most `deadline`.
+inline grpc::Status captureBackground(v1::MocapService::Stub& stub, uint32_t frames,
+                                      v1::CaptureBackgroundResponse& response,
+                                      std::chrono::seconds deadline = std::chrono::seconds(30)) {
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + deadline);
+  v1::CaptureBackgroundRequest request;
+  request.set_frames(frames);
+  return stub.CaptureBackground(&context, request, &response);
 }
 
 // Reads a pose stream on its own thread, counting poses and the frame-set sequences they span.
