@@ -215,6 +215,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       if (realistic) corruptSilhouette(images[c], config.seed, f, static_cast<int>(c));
       masks[c] = SilhouetteMask(images[c]);
     }
+    if (config.reset_every > 0 && f > 0 && f % config.reset_every == 0) filter->reset(truth[f - 1]);
     const auto start = std::chrono::steady_clock::now();
     const FrameEstimate estimate = filter->step(masks);
     tracking_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -300,6 +301,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"seconds_per_frame", tracking_seconds / frames},
       {"ground_truth_fit_residual_mm", residual_count ? residual / residual_count : 0.0},
   };
+  if (config.reset_every > 0) out["reset_every"] = config.reset_every;
   if (config.start_offset != "none") {
     out["start_offset"] = config.start_offset;
     out["recovery_frames"] = recovery >= 0 ? nlohmann::json(recovery) : nlohmann::json();
@@ -314,7 +316,8 @@ int runHumanCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
                   {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
                    "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
-                   "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject"},
+                   "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
+                   "reset-every"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -327,6 +330,7 @@ int runHumanCommand(int argc, char** argv) {
   config.noise = args.text("noise", config.noise);
   config.start_offset = args.text("start-offset", config.start_offset);
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
+  config.reset_every = static_cast<int>(args.integer("reset-every", 0, 0, 1'000'000));
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");

@@ -41,6 +41,9 @@ struct HumanExperimentConfig {
   std::string noise = "none";       // none | realistic
   std::string start_offset = "none";  // none | arm60 | body30cm
   int threads = 0;
+  // Diagnosis of the search alone: every `reset_every` frames (0: never) the filter restarts from
+  // the true pose of the frame before, so errors cannot build up; 1 gives the one-step error.
+  int reset_every = 0;
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none

@@ -1,5 +1,5 @@
-// The human experiment's scoring: per-limb errors point at the limb that is wrong, and bad flags
-// are refused with their names.
+// The human experiment's scoring: per-limb errors point at the limb that is wrong, --reset-every
+// restarts from the truth, and bad flags are refused with their names.
 #include "tracker/experiments/human_experiment.h"
 
 #include <filesystem>
@@ -30,6 +30,24 @@ TEST(HumanExperiment, PerLimbErrorsPointAtTheMisplacedArm) {
     EXPECT_GT(left_arm, 3 * limb[other].get<double>()) << other << ": " << limb.dump();
   EXPECT_EQ(out["limb_lost_frames"]["left_arm"].get<int>(), 1);
   EXPECT_TRUE(out["arm_recovery_frames"].is_null());  // not back within the one frame
+}
+
+// --reset-every restarts the tracker from the truth of the frame before: a body 30 cm off at the
+// start is back in the next frame with it, and cannot be without it (10 cm per frame at most).
+TEST(HumanExperiment, ResetEveryRestartsFromTheTruth) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config;
+  config.motion_path = kWalk;
+  config.frames = 2;
+  config.cameras = 2;
+  config.threads = 1;
+  config.start_offset = "body30cm";
+  config.filter.lookahead = FilterOptions::Lookahead::kBody;  // the command's default
+  EXPECT_TRUE(runHumanExperiment(config)["recovery_frames"].is_null());
+  config.reset_every = 1;
+  const nlohmann::json out = runHumanExperiment(config);
+  EXPECT_EQ(out["recovery_frames"], 1) << out.dump();
+  EXPECT_EQ(out["reset_every"], 1);
 }
 
 TEST(HumanExperiment, BadOptionsAreNamed) {
