@@ -67,6 +67,31 @@ bool ShapeRasterizer::outline(const Shape& shape, const Eigen::Isometry3d& pose,
     const Eigen::Vector3d u = axis.unitOrthogonal();
     const Eigen::Vector3d v = axis.cross(u);
     const Eigen::Vector3d far_end = origin + axis * shape.length;
+#if defined(__SSE2__)
+    if (pinhole) {
+      // x and y in the two lanes, z alone: per coordinate the same products and sums as below
+      // (cos * u + sin * v, end + radius * dir, f * (x / z) + c), so the same pixels.
+      const __m128d u_xy = _mm_loadu_pd(u.data()), v_xy = _mm_loadu_pd(v.data());
+      const __m128d ends_xy[2] = {_mm_loadu_pd(origin.data()), _mm_loadu_pd(far_end.data())};
+      const double ends_z[2] = {origin.z(), far_end.z()};
+      const double radii[2] = {shape.radius_start, shape.radius_end};
+      const __m128d focal = _mm_set_pd(camera.fy, camera.fx);
+      const __m128d principal = _mm_set_pd(camera.cy, camera.cx);
+      for (int i = 0; i < n; ++i) {
+        const __m128d c = _mm_set1_pd(cos_[i]), s = _mm_set1_pd(sin_[i]);
+        const __m128d dir_xy = _mm_add_pd(_mm_mul_pd(c, u_xy), _mm_mul_pd(s, v_xy));
+        const double dir_z = cos_[i] * u.z() + sin_[i] * v.z();
+        for (int end = 0; end < 2; ++end) {
+          const double z = ends_z[end] + radii[end] * dir_z;
+          if (z < CameraModel::kMinDepth) return false;
+          const __m128d xy = _mm_add_pd(ends_xy[end], _mm_mul_pd(_mm_set1_pd(radii[end]), dir_xy));
+          _mm_storeu_pd(out[projected_count_++].data(),
+                        _mm_add_pd(_mm_mul_pd(focal, _mm_div_pd(xy, _mm_set1_pd(z))), principal));
+        }
+      }
+      return true;
+    }
+#endif
     for (int i = 0; i < n; ++i) {
       const Eigen::Vector3d dir = cos_[i] * u + sin_[i] * v;
       if (!emit(origin + shape.radius_start * dir) || !emit(far_end + shape.radius_end * dir))
