@@ -139,9 +139,20 @@ int monotoneChain(Eigen::Vector2d* points, int n, Eigen::Vector2d* hull) {
       points[j] = points[j - 1];
     points[j] = p;
   }
+#if defined(__SSE2__)
+  // The same subtractions and products with x and y in the two lanes, so the same value.
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    const __m128d origin = _mm_loadu_pd(o.data());
+    const __m128d oa = _mm_sub_pd(_mm_loadu_pd(a.data()), origin);
+    const __m128d ob = _mm_sub_pd(_mm_loadu_pd(b.data()), origin);
+    const __m128d products = _mm_mul_pd(oa, _mm_shuffle_pd(ob, ob, 1));  // oa.x ob.y, oa.y ob.x
+    return _mm_cvtsd_f64(_mm_sub_sd(products, _mm_unpackhi_pd(products, products)));
+  };
+#else
   auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
   };
+#endif
   int k = 0;
   for (int i = 0; i < n; ++i) {  // lower chain
     while (k >= 2 && cross(hull[k - 2], hull[k - 1], points[i]) <= 0) --k;
@@ -230,7 +241,7 @@ Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* bu
   // none, which monotone chains rule out.
   auto next = [&](Chain& c, int y) {
     while (c.v != bottom) {
-      const int to = (c.v + c.step) % n;
+      const int to = c.v + c.step < n ? c.v + c.step : c.v + c.step - n;  // no division
       const Eigen::Vector2d& p = hull_[c.v];
       const Eigen::Vector2d& q = hull_[to];
       c.v = to;
