@@ -13,11 +13,11 @@ using Row = SilhouetteMask::Row;
 // Rows [y, end) of `spans` (starting at row y) with nothing explained: area and silhouette pixels.
 void countRows(const SilhouetteMask& mask, int y, int end, const RowSpan* spans, long& area,
                long& silhouette) {
-  for (; y < end; ++y, ++spans) {
+  for (Row row = mask.row(y); y < end; ++y, ++spans, row.next()) {
     const int a = spans->x0, b = spans->x1;
     if (a >= b) continue;
     area += b - a;
-    silhouette += mask.row(y).count(a, b);
+    silhouette += row.count(a, b);
   }
 }
 
@@ -27,10 +27,9 @@ void countRows(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
 void countRowsMinusOne(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
                        const Footprint& e, long& area, long& silhouette, long& explained) {
   const RowSpan* es = e.spans + (y - e.y0);
-  for (; y < end; ++y, ++spans, ++es) {
+  for (Row row = mask.row(y); y < end; ++y, ++spans, ++es, row.next()) {
     const int a = spans->x0, b = spans->x1;
     if (a >= b) continue;
-    const Row row = mask.row(y);
     const int ca = row.before(a), cb = row.before(b);
     area += b - a;
     silhouette += cb - ca;
@@ -47,10 +46,9 @@ void countRowsMinusTwo(const SilhouetteMask& mask, int y, int end, const RowSpan
                        long& explained) {
   const RowSpan* es = e.spans + (y - e.y0);
   const RowSpan* gs = g.spans + (y - g.y0);
-  for (; y < end; ++y, ++spans, ++es, ++gs) {
+  for (Row row = mask.row(y); y < end; ++y, ++spans, ++es, ++gs, row.next()) {
     const int a = spans->x0, b = spans->x1;
     if (a >= b) continue;
-    const Row row = mask.row(y);
     const int ca = row.before(a), cb = row.before(b);
     area += b - a;
     silhouette += cb - ca;
@@ -85,7 +83,8 @@ void countRowsMinusMany(const SilhouetteMask& mask, int y, int end, const RowSpa
   const RowSpan* es[kMax];
   for (int i = 0; i < n_active; ++i) es[i] = active[i]->spans + (y - active[i]->y0);
   RowSpan cut[kMax + 1];
-  for (int r = 0; y < end; ++y, ++r) {
+  Row row = mask.row(y);
+  for (int r = 0; y < end; ++y, ++r, row.next()) {
     const int a = spans[r].x0, b = spans[r].x1;
     if (a >= b) continue;
     int u_lo = b, u_hi = b;  // the merged interval; empty while u_lo == b
@@ -105,7 +104,6 @@ void countRowsMinusMany(const SilhouetteMask& mask, int y, int end, const RowSpa
         cut[n_apart++] = {static_cast<int16_t>(lo), static_cast<int16_t>(hi)};
       }
     }
-    const Row row = mask.row(y);
     const int ca = row.before(a), cb = row.before(b);
     area += b - a;
     silhouette += cb - ca;

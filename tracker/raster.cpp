@@ -67,6 +67,31 @@ bool ShapeRasterizer::outline(const Shape& shape, const Eigen::Isometry3d& pose,
     const Eigen::Vector3d u = axis.unitOrthogonal();
     const Eigen::Vector3d v = axis.cross(u);
     const Eigen::Vector3d far_end = origin + axis * shape.length;
+#if defined(__SSE2__)
+    if (pinhole) {
+      // x and y in the two lanes, z alone: per coordinate the same products and sums as below
+      // (cos * u + sin * v, end + radius * dir, f * (x / z) + c), so the same pixels.
+      const __m128d u_xy = _mm_loadu_pd(u.data()), v_xy = _mm_loadu_pd(v.data());
+      const __m128d ends_xy[2] = {_mm_loadu_pd(origin.data()), _mm_loadu_pd(far_end.data())};
+      const double ends_z[2] = {origin.z(), far_end.z()};
+      const double radii[2] = {shape.radius_start, shape.radius_end};
+      const __m128d focal = _mm_set_pd(camera.fy, camera.fx);
+      const __m128d principal = _mm_set_pd(camera.cy, camera.cx);
+      for (int i = 0; i < n; ++i) {
+        const __m128d c = _mm_set1_pd(cos_[i]), s = _mm_set1_pd(sin_[i]);
+        const __m128d dir_xy = _mm_add_pd(_mm_mul_pd(c, u_xy), _mm_mul_pd(s, v_xy));
+        const double dir_z = cos_[i] * u.z() + sin_[i] * v.z();
+        for (int end = 0; end < 2; ++end) {
+          const double z = ends_z[end] + radii[end] * dir_z;
+          if (z < CameraModel::kMinDepth) return false;
+          const __m128d xy = _mm_add_pd(ends_xy[end], _mm_mul_pd(_mm_set1_pd(radii[end]), dir_xy));
+          _mm_storeu_pd(out[projected_count_++].data(),
+                        _mm_add_pd(_mm_mul_pd(focal, _mm_div_pd(xy, _mm_set1_pd(z))), principal));
+        }
+      }
+      return true;
+    }
+#endif
     for (int i = 0; i < n; ++i) {
       const Eigen::Vector3d dir = cos_[i] * u + sin_[i] * v;
       if (!emit(origin + shape.radius_start * dir) || !emit(far_end + shape.radius_end * dir))
@@ -114,9 +139,20 @@ int monotoneChain(Eigen::Vector2d* points, int n, Eigen::Vector2d* hull) {
       points[j] = points[j - 1];
     points[j] = p;
   }
+#if defined(__SSE2__)
+  // The same subtractions and products with x and y in the two lanes, so the same value.
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    const __m128d origin = _mm_loadu_pd(o.data());
+    const __m128d oa = _mm_sub_pd(_mm_loadu_pd(a.data()), origin);
+    const __m128d ob = _mm_sub_pd(_mm_loadu_pd(b.data()), origin);
+    const __m128d products = _mm_mul_pd(oa, _mm_shuffle_pd(ob, ob, 1));  // oa.x ob.y, oa.y ob.x
+    return _mm_cvtsd_f64(_mm_sub_sd(products, _mm_unpackhi_pd(products, products)));
+  };
+#else
   auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
   };
+#endif
   int k = 0;
   for (int i = 0; i < n; ++i) {  // lower chain
     while (k >= 2 && cross(hull[k - 2], hull[k - 1], points[i]) <= 0) --k;
@@ -205,7 +241,7 @@ Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* bu
   // none, which monotone chains rule out.
   auto next = [&](Chain& c, int y) {
     while (c.v != bottom) {
-      const int to = (c.v + c.step) % n;
+      const int to = c.v + c.step < n ? c.v + c.step : c.v + c.step - n;  // no division
       const Eigen::Vector2d& p = hull_[c.v];
       const Eigen::Vector2d& q = hull_[to];
       c.v = to;

@@ -39,6 +39,7 @@ SilhouetteMask::SilhouetteMask(const cv::Mat& binary) {
     for (int w = 0; w < words_per_row_; ++w) {
       row[w].before = running;
       running += static_cast<uint32_t>(std::popcount(row[w].bits));
+      row[w].bits <<= 1;
     }
   }
 }

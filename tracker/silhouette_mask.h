@@ -24,7 +24,9 @@ class SilhouetteMask {
 
  private:
   struct Word {
-    uint64_t bits = 0;     // bit i = pixel 64 * word + i
+    // Bit i + 1 = pixel 64 * word + i: shifted, so a lookup keeps the pixels below x with one
+    // shift. Pixel 63 is never needed (x = 64 * word + 64 looks up the next word).
+    uint64_t bits = 0;
     uint32_t before = 0;   // foreground pixels of the row before this word
   };
 
@@ -36,17 +38,23 @@ class SilhouetteMask {
     // Foreground pixels in columns [0, x), 0 <= x <= width.
     int before(int x) const {
       const Word& w = words_[x >> 6];
-      return static_cast<int>(w.before) + std::popcount(w.bits & ((uint64_t{1} << (x & 63)) - 1));
+      // Shifted left by 63 - x % 64 (= ~x % 64), pixels x % 64 and above fall off the top.
+      return static_cast<int>(w.before) + std::popcount(w.bits << (~x & 63));
     }
     int count(int x0, int x1) const { return before(x1) - before(x0); }
+    // Moves to the row below, for loops walking rows in order (one add instead of a row lookup).
+    void next() { words_ += stride_; }
 
    private:
     friend class SilhouetteMask;
-    explicit Row(const Word* words) : words_(words) {}
+    Row(const Word* words, int stride) : words_(words), stride_(stride) {}
     const Word* words_;
+    int stride_;
   };
-  // Requires 0 <= y < height.
-  Row row(int y) const { return Row(words_.data() + static_cast<std::size_t>(y) * words_per_row_); }
+  // Requires 0 <= y <= height (y == height only as the end of a walk with Row::next).
+  Row row(int y) const {
+    return Row(words_.data() + static_cast<std::size_t>(y) * words_per_row_, words_per_row_);
+  }
   // Foreground pixels in the whole mask.
   long total() const;
   // Back to an 8-bit 0/255 image.

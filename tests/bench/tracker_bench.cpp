@@ -1,12 +1,17 @@
 // Benchmarks of the tracker's hot path on the paper's hand setup (3 cameras at 780x580):
 // one factored-filter step of 375 particle evaluations, one Condensation step of 375 particles, and
 // one segment likelihood evaluation (rasterize one finger segment in 3 cameras and count it against
-// the masked silhouettes), and that evaluation's two halves separately. Threads: the Arg.
+// the masked silhouettes), and that evaluation's two halves separately. On the human body (the CMU
+// walk, 2 cameras at 780x580, set up as `mocap-experiment human` does): one factored step of 2000
+// evaluations with the experiment's defaults and with the paper's options. Threads: the Arg.
 #include <benchmark/benchmark.h>
 
+#include "tracker/bvh.h"
 #include "tracker/experiments/hand_experiment.h"
+#include "tracker/experiments/human_experiment.h"
 #include "tracker/kinematics.h"
 #include "tracker/motion.h"
+#include "tracker/retarget.h"
 #include "tracker/scene.h"
 
 namespace mocap {
@@ -118,6 +123,70 @@ void BM_SegmentCount(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_SegmentCount)->Unit(benchmark::kNanosecond);
+
+// The human experiment's set-up: the built-in body fitted to the walk's skeleton, the walk
+// retargeted at 25 Hz, the lab rig of 2 cameras around its path (which depends on the frame
+// count), rendered silhouettes. The step wraps around to frame 0 like the hand's.
+struct HumanSetup {
+  static constexpr int kFrames = 30;  // as the reference run: --frames 30
+  Bvh bvh = loadBvh(std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh");
+  BodyModel model = fitModelToBvh(builtinHumanModel(), bvh.skeleton);
+  Motion motion = retargetBvh(model, bvh.skeleton, bvh.motion, 25, kFrames).motion;
+  Rig rig = labRig(2, model, motion);
+  std::vector<std::vector<SilhouetteMask>> frames;
+  HumanSetup() {
+    SceneRenderer renderer(model, rig);
+    for (const auto& q : motion) {
+      frames.emplace_back();
+      for (const cv::Mat& image : renderer.renderSilhouettes(q)) frames.back().emplace_back(image);
+    }
+  }
+};
+
+HumanSetup& humanSetup() {
+  static HumanSetup s;
+  return s;
+}
+
+void humanStep(benchmark::State& state, const FilterOptions& options) {
+  HumanSetup& s = humanSetup();
+  WorkerPool pool(static_cast<int>(state.range(0)));
+  auto filter = makeFilter("factored", s.model, s.rig, options, pool);
+  filter->reset(s.motion[0]);
+  std::size_t f = 0;
+  long evaluations = 0;
+  for (auto _ : state) {
+    evaluations += filter->step(s.frames[f]).evaluations;
+    f = (f + 1) % s.frames.size();
+  }
+  state.counters["evals_per_step"] =
+      benchmark::Counter(static_cast<double>(evaluations) / state.iterations());
+}
+
+// `mocap-experiment human`'s defaults: whole-body lookahead, segment injection, 5 % injected.
+void BM_HumanFactoredStep2000(benchmark::State& state) {
+  FilterOptions options;
+  options.evaluations_per_frame = 2000;
+  options.lookahead = FilterOptions::Lookahead::kBody;
+  options.injection = FilterOptions::Injection::kSegment;
+  options.injection_share = 0.05;
+  humanStep(state, options);
+}
+// The paper's options: no lookahead, DOF injection, 2 % injected.
+void BM_HumanFactoredStep2000Paper(benchmark::State& state) {
+  FilterOptions options;
+  options.evaluations_per_frame = 2000;
+  options.lookahead = FilterOptions::Lookahead::kNone;
+  options.injection = FilterOptions::Injection::kDof;
+  options.injection_share = 0.02;
+  humanStep(state, options);
+}
+BENCHMARK(BM_HumanFactoredStep2000)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
+BENCHMARK(BM_HumanFactoredStep2000Paper)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace mocap
