@@ -4,6 +4,8 @@
 // the masked silhouettes), and that evaluation's two halves separately. On the human body (the CMU
 // walk, 2 cameras at 780x580, set up as `mocap-experiment human` does): one factored step of 2000
 // evaluations with the experiment's defaults and with the paper's options. Threads: the Arg.
+#include <utility>
+
 #include <benchmark/benchmark.h>
 
 #include "tracker/bvh.h"
@@ -17,12 +19,14 @@
 namespace mocap {
 namespace {
 
-struct HandSetup {
-  BodyModel model = builtinHandModel();
-  Rig rig = handRig(3);
-  Motion motion = generateMotion(model, 50, 1);
+// A body tracked along a motion: the rendered ground-truth silhouettes of every frame.
+struct TrackingSetup {
+  BodyModel model;
+  Rig rig;
+  Motion motion;
   std::vector<std::vector<SilhouetteMask>> frames;
-  HandSetup() {
+  TrackingSetup(BodyModel body, Rig cameras, Motion poses)
+      : model(std::move(body)), rig(std::move(cameras)), motion(std::move(poses)) {
     SceneRenderer renderer(model, rig);
     for (const auto& q : motion) {
       frames.emplace_back();
@@ -31,26 +35,30 @@ struct HandSetup {
   }
 };
 
-HandSetup& setup() {
-  static HandSetup s;
+TrackingSetup& setup() {
+  static TrackingSetup s(builtinHandModel(), handRig(3), generateMotion(builtinHandModel(), 50, 1));
   return s;
 }
 
-void filterStep(benchmark::State& state, const char* method) {
-  HandSetup& s = setup();
+// One filter step per iteration, tracking the motion forward and wrapping around (the jump back
+// costs nothing here). Threads: the Arg.
+void trackSteps(benchmark::State& state, const TrackingSetup& s, const char* method,
+                const FilterOptions& options) {
   WorkerPool pool(static_cast<int>(state.range(0)));
-  FilterOptions options;
   auto filter = makeFilter(method, s.model, s.rig, options, pool);
   filter->reset(s.motion[0]);
   std::size_t f = 0;
   long evaluations = 0;
   for (auto _ : state) {
-    // Track the motion forward, wrapping around (the jump back costs nothing here).
     evaluations += filter->step(s.frames[f]).evaluations;
     f = (f + 1) % s.frames.size();
   }
   state.counters["evals_per_step"] =
       benchmark::Counter(static_cast<double>(evaluations) / state.iterations());
+}
+
+void filterStep(benchmark::State& state, const char* method) {
+  trackSteps(state, setup(), method, FilterOptions());
 }
 
 void BM_FactoredStep375(benchmark::State& state) { filterStep(state, "factored"); }
@@ -61,7 +69,7 @@ BENCHMARK(BM_CondensationStep375)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)
 // One particle evaluation of the factored filter: the index middle phalanx (frame 10) against the
 // silhouette minus what the palm and its parent phalanx already explain, in all 3 cameras.
 struct PhalanxSetup {
-  HandSetup& s = setup();
+  TrackingSetup& s = setup();
   KinematicsData kin{s.model};
   ShapeRasterizer rasterizer{LikelihoodParams().points_per_circle};
   const int middle = s.model.segmentIndex("index_2");
@@ -124,62 +132,37 @@ void BM_SegmentCount(benchmark::State& state) {
 }
 BENCHMARK(BM_SegmentCount)->Unit(benchmark::kNanosecond);
 
-// The human experiment's set-up: the built-in body fitted to the walk's skeleton, the walk
-// retargeted at 25 Hz, the lab rig of 2 cameras around its path (which depends on the frame
-// count), rendered silhouettes. The step wraps around to frame 0 like the hand's.
-struct HumanSetup {
-  static constexpr int kFrames = 30;  // as the reference run: --frames 30
-  Bvh bvh = loadBvh(std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh");
-  BodyModel model = fitModelToBvh(builtinHumanModel(), bvh.skeleton);
-  Motion motion = retargetBvh(model, bvh.skeleton, bvh.motion, 25, kFrames).motion;
-  Rig rig = labRig(2, model, motion);
-  std::vector<std::vector<SilhouetteMask>> frames;
-  HumanSetup() {
-    SceneRenderer renderer(model, rig);
-    for (const auto& q : motion) {
-      frames.emplace_back();
-      for (const cv::Mat& image : renderer.renderSilhouettes(q)) frames.back().emplace_back(image);
-    }
-  }
-};
-
-HumanSetup& humanSetup() {
-  static HumanSetup s;
+// The human experiment's set-up: the built-in body fitted to the walk's skeleton, 30 frames of the
+// walk retargeted at 25 Hz (as the reference run --frames 30), the lab rig of 2 cameras around
+// that path.
+TrackingSetup& humanSetup() {
+  static TrackingSetup s = [] {
+    const Bvh bvh = loadBvh(std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh");
+    BodyModel model = fitModelToBvh(builtinHumanModel(), bvh.skeleton);
+    Motion motion = retargetBvh(model, bvh.skeleton, bvh.motion, 25, 30).motion;
+    Rig rig = labRig(2, model, motion);
+    return TrackingSetup(std::move(model), std::move(rig), std::move(motion));
+  }();
   return s;
 }
 
-void humanStep(benchmark::State& state, const FilterOptions& options) {
-  HumanSetup& s = humanSetup();
-  WorkerPool pool(static_cast<int>(state.range(0)));
-  auto filter = makeFilter("factored", s.model, s.rig, options, pool);
-  filter->reset(s.motion[0]);
-  std::size_t f = 0;
-  long evaluations = 0;
-  for (auto _ : state) {
-    evaluations += filter->step(s.frames[f]).evaluations;
-    f = (f + 1) % s.frames.size();
-  }
-  state.counters["evals_per_step"] =
-      benchmark::Counter(static_cast<double>(evaluations) / state.iterations());
+void humanStep(benchmark::State& state, FilterOptions::Lookahead lookahead,
+               FilterOptions::Injection injection, double injection_share) {
+  FilterOptions options;
+  options.evaluations_per_frame = 2000;
+  options.lookahead = lookahead;
+  options.injection = injection;
+  options.injection_share = injection_share;
+  trackSteps(state, humanSetup(), "factored", options);
 }
 
-// `mocap-experiment human`'s defaults: whole-body lookahead, segment injection, 5 % injected.
+// `mocap-experiment human`'s defaults: whole-body look-ahead, segment injection, 5 % injected.
 void BM_HumanFactoredStep2000(benchmark::State& state) {
-  FilterOptions options;
-  options.evaluations_per_frame = 2000;
-  options.lookahead = FilterOptions::Lookahead::kBody;
-  options.injection = FilterOptions::Injection::kSegment;
-  options.injection_share = 0.05;
-  humanStep(state, options);
+  humanStep(state, FilterOptions::Lookahead::kBody, FilterOptions::Injection::kSegment, 0.05);
 }
-// The paper's options: no lookahead, DOF injection, 2 % injected.
+// The paper's options: no look-ahead, DOF injection, 2 % injected.
 void BM_HumanFactoredStep2000Paper(benchmark::State& state) {
-  FilterOptions options;
-  options.evaluations_per_frame = 2000;
-  options.lookahead = FilterOptions::Lookahead::kNone;
-  options.injection = FilterOptions::Injection::kDof;
-  options.injection_share = 0.02;
-  humanStep(state, options);
+  humanStep(state, FilterOptions::Lookahead::kNone, FilterOptions::Injection::kDof, 0.02);
 }
 BENCHMARK(BM_HumanFactoredStep2000)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
 BENCHMARK(BM_HumanFactoredStep2000Paper)
