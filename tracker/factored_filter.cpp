@@ -17,6 +17,7 @@
 #include <stdexcept>
 
 #include "tracker/filter.h"
+#include "tracker/full_body.h"
 #include "tracker/kinematics.h"
 
 namespace mocap {
@@ -92,12 +93,25 @@ class FactoredFilter final : public PoseFilter {
         std::count_if(layers_.begin(), layers_.end(), [](const Layer& l) { return l.dof >= 0; }));
     const int observation_layers = static_cast<int>(layers_.size()) - sampling_layers;
     samples_ = options.samples;
+    if (options.refine_share < 0 || options.refine_share >= 1)
+      throw std::invalid_argument("factored filter: refine share must be in [0, 1)");
     if (samples_ <= 0) {
-      const double budget = options.evaluations_per_frame - observation_layers * options.keep;
+      const double budget = options.evaluations_per_frame * (1 - options.refine_share) -
+                            observation_layers * options.keep;
       samples_ = std::max(
           1, static_cast<int>(std::lround(budget / std::max(1, sampling_layers * options.keep))));
+      // An even count never samples the interval's centre (the previous value). With a
+      // refinement, which takes what the layers leave, the count is made odd at no loss of budget.
+      if (options.refine_share > 0 && samples_ % 2 == 0) --samples_;
     }
     candidates_per_layer_ = options.keep * samples_;
+    if (options.refine_share > 0) {
+      // The refinement takes what the layers leave of the budget.
+      const int layer_evaluations = sampling_layers * candidates_per_layer_ + observation_layers * options.keep;
+      refine_evaluations_ = std::max(2, options.evaluations_per_frame - layer_evaluations);
+      refiner_ = std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle,
+                                                     pool.size());
+    }
 
     for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
     candidates_.resize(candidates_per_layer_);
@@ -144,6 +158,7 @@ class FactoredFilter final : public PoseFilter {
           static_cast<long>(count) * (layer.lookahead ? descendants_[layer.segment].size() + 1 : 1);
       keepBest(layer, count);
     }
+    if (refiner_) refine(masks, estimate);
     finishFrame(estimate);
     return estimate;
   }
@@ -425,6 +440,67 @@ class FactoredFilter final : public PoseFilter {
     particles_.swap(next_particles_);
   }
 
+  // Pattern search on the full-body likelihood from the best particle: each free DOF in layer
+  // order tries one step either side (the two evaluated in parallel), takes the better if it
+  // improves the pose, and halves its step when neither does. The result replaces the best
+  // particle, so the next frame starts from it.
+  // Pattern search on the full-body likelihood from the best particle (Hooke and Jeeves): each
+  // free DOF in layer order takes one step, first in the direction that last worked, then in the
+  // other; a step that improves the pose is taken and grows by half, one that does not in either
+  // direction halves. After each sweep over the DOFs, the whole sweep's change is tried once more
+  // (the pattern move, which follows DOFs that move together). The result replaces the best
+  // particle, so the next frame starts from it.
+  void refine(const std::vector<SilhouetteMask>& masks, FrameEstimate& estimate) {
+    Eigen::VectorXd& q = particles_[0].q;
+    const auto score = [&](const Eigen::VectorXd& pose) {
+      return logLikelihood(options_.likelihood, refiner_->evaluate(pose, masks, 0));
+    };
+    double best = score(q);
+    int budget = refine_evaluations_ - 1;
+    const auto tryPose = [&](const Eigen::VectorXd& pose) {
+      --budget;
+      const double value = score(pose);
+      if (value <= best) return false;
+      best = value;
+      q = pose;
+      return true;
+    };
+    refine_steps_.clear();
+    for (const Layer& layer : layers_)
+      if (layer.dof >= 0) refine_steps_.push_back(options_.refine_step * model_.dofs[layer.dof].max_speed);
+    Eigen::VectorXd tried;
+    while (budget > 0) {
+      const Eigen::VectorXd sweep_start = q;
+      int k = 0;
+      for (const Layer& layer : layers_) {
+        if (layer.dof < 0) continue;
+        if (budget <= 0) break;
+        const Dof& dof = model_.dofs[layer.dof];
+        double& step = refine_steps_[k++];  // signed: the direction that last worked
+        bool moved = false;
+        for (const double signed_step : {step, -step}) {
+          if (budget <= 0) break;
+          tried = q;
+          tried[layer.dof] = std::clamp(q[layer.dof] + signed_step, dof.min, dof.max);
+          if (tried[layer.dof] == q[layer.dof]) continue;
+          if ((moved = tryPose(tried))) {
+            step = 1.5 * signed_step;
+            break;
+          }
+        }
+        if (!moved) step *= 0.5;
+      }
+      if (budget > 0 && q != sweep_start) {
+        tried = 2 * q - sweep_start;
+        clampToLimits(model_, tried);
+        tryPose(tried);
+      }
+    }
+    const int spent = refine_evaluations_ - budget;
+    estimate.evaluations += spent;
+    estimate.segment_renders += static_cast<long>(spent) * refiner_->drawnSegments();
+  }
+
   void finishFrame(FrameEstimate& estimate) {
     std::vector<const Eigen::VectorXd*> qs;
     std::vector<double> lw;
@@ -433,7 +509,8 @@ class FactoredFilter final : public PoseFilter {
       lw.push_back(p.log_weight);
     }
     weightedEstimate(qs, lw, estimate);
-    if (options_.estimate_best) estimate.q = particles_[0].q;  // kept sorted best first
+    // Kept sorted best first; a refined best particle is the estimate.
+    if (options_.estimate_best || refiner_) estimate.q = particles_[0].q;
   }
 
   const BodyModel& model_;
@@ -460,6 +537,9 @@ class FactoredFilter final : public PoseFilter {
   std::vector<WorkerScratch> scratch_;
   std::vector<std::vector<int>> descendants_;  // per segment
   std::vector<RestOfBody> rest_;               // per kept particle
+  int refine_evaluations_ = 0;
+  std::unique_ptr<FullBodyEvaluator> refiner_;  // only with a refine share
+  std::vector<double> refine_steps_;            // per DOF layer
 };
 
 }  // namespace

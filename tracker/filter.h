@@ -46,6 +46,12 @@ struct FilterOptions {
   Lookahead lookahead = Lookahead::kNone;
   // factored: the estimate is the weighted mean of the kept particles, or the best of them.
   bool estimate_best = false;
+  // factored: share of the budget spent after the layers on a local search of the whole body: a
+  // pattern search over every DOF on the full-body likelihood, one evaluation per pose tried,
+  // starting from the best particle. The layers place each DOF with the segments not yet placed
+  // standing where they were a frame ago; this corrects what that greedy order got wrong.
+  double refine_share = 0;
+  double refine_step = 0.5;  // the pattern search's first step, in speed limits of each DOF
   int annealing_layers = 5;       // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;

@@ -1,6 +1,6 @@
 // The factored particle filter: it finds a known static pose from a perturbed start, spends exactly
-// its budget, does not depend on the thread count, and recovers a misplaced joint by injection (of
-// one DOF, or of a whole segment's angles).
+// its budget, does not depend on the thread count, recovers a misplaced joint by injection (of
+// one DOF, or of a whole segment's angles), and its full-body refinement corrects the layers.
 #include <gtest/gtest.h>
 
 #include "tests/tracker/filter_test_support.h"
@@ -65,6 +65,55 @@ TEST(FactoredFilter, LookAheadKeepsTheBudgetAndThreadIndependence) {
     EXPECT_LT(scene.pointError(e.q, motion.back()), 0.01);
     testing_support::expectSameEstimatesForThreadCounts("factored", options, {1, 2}, 4);
   }
+}
+
+TEST(FactoredFilter, RefinementTakesWhatTheLayersLeaveOfTheBudget) {
+  HandScene scene;
+  const Motion motion = generateMotion(scene.model, 3, 5);
+  for (double share : {0.2, 0.4, 0.7}) {
+    FilterOptions options;
+    options.refine_share = share;
+    WorkerPool pool(1);
+    auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
+    filter->reset(motion[0]);
+    for (const auto& q : motion) {
+      const FrameEstimate e = filter->step(scene.masks(q));
+      EXPECT_EQ(e.evaluations, 375) << "share " << share;
+    }
+  }
+  FilterOptions bad;
+  bad.refine_share = 1.0;
+  WorkerPool pool(1);
+  EXPECT_THROW(makeFilter("factored", scene.model, scene.rig, bad, pool), std::invalid_argument);
+}
+
+// The layers place each DOF with the later segments where they stood a frame ago; the pattern
+// search on the whole body corrects that, so at the same budget one frame ends nearer the truth.
+TEST(FactoredFilter, RefinementEndsNearerTheTruthAtTheSameBudget) {
+  HandScene scene;
+  double error[2];
+  for (int refined = 0; refined < 2; ++refined) {
+    double sum = 0;
+    for (uint64_t seed : {3, 9, 21}) {
+      const Eigen::VectorXd truth = generateMotion(scene.model, 1, seed)[0];
+      FilterOptions options;
+      options.refine_share = refined ? 0.4 : 0.0;
+      WorkerPool pool(1);
+      auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
+      filter->reset(scene.perturbed(truth, 0.7));
+      sum += scene.pointError(filter->step(scene.masks(truth)).q, truth);
+    }
+    error[refined] = sum / 3;
+  }
+  EXPECT_LT(error[1], 0.7 * error[0]) << "refined " << error[1] << " m, layers only " << error[0] << " m";
+}
+
+TEST(FactoredFilter, RefinementDoesNotDependOnTheThreadCount) {
+  FilterOptions options;
+  options.refine_share = 0.4;
+  options.injection_share = 0.1;
+  options.lookahead = FilterOptions::Lookahead::kBody;
+  testing_support::expectSameEstimatesForThreadCounts("factored", options, {1, 2}, 4);
 }
 
 TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {

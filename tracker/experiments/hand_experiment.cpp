@@ -79,6 +79,7 @@ nlohmann::json runHandExperiment(const HandExperimentConfig& config) {
       {"cameras", static_cast<int>(rig.size())},
       {"seed", config.seed},
       {"threads", pool.size()},
+      {"refine", config.method == "factored" ? config.filter.refine_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
       {"mean_relative_error", moving ? sum / moving : 0.0},
@@ -96,7 +97,7 @@ namespace mocap {
 int runHandCommand(int argc, char** argv) {
   const Args args(argc, argv, 2,
                   {"method", "evals", "frames", "seed", "cameras", "motion", "model", "threads",
-                   "keep", "samples", "injection", "beta", "lookahead"},
+                   "keep", "samples", "injection", "beta", "lookahead", "refine"},
                   {"describe"});
   if (args.has("describe")) {
     const BodyModel model =
@@ -118,6 +119,7 @@ int runHandCommand(int argc, char** argv) {
   config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
   config.filter.likelihood.beta = args.real("beta", config.filter.likelihood.beta, 1e-9, 1e3);
   config.filter.lookahead = parseLookahead(args.text("lookahead", "none"));
+  config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
   std::cout << runHandExperiment(config).dump(2) << "\n";
   return 0;
 }

@@ -290,6 +290,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"threads", pool.size()},
       {"injection", options.injection_share},
       {"inject", options.injection == FilterOptions::Injection::kSegment ? "segment" : "dof"},
+      {"refine", config.method == "factored" ? options.refine_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
       {"mpjpe_mm", mpjpe / frames},
@@ -317,7 +318,7 @@ int runHumanCommand(int argc, char** argv) {
                   {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
                    "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
                    "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
-                   "reset-every"},
+                   "reset-every", "refine", "refine-step"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -343,6 +344,10 @@ int runHumanCommand(int argc, char** argv) {
   config.filter.annealing_layers =
       static_cast<int>(args.integer("layers", config.filter.annealing_layers, 1, 100));
   config.filter.lookahead = parseLookahead(args.text("lookahead", "body"));
+  // 40 % of the factored budget on the full-body pattern search after the layers (chosen on the
+  // walk, seeds 1-3, among 0.3-0.9; see docs/human.md).
+  config.filter.refine_share = args.real("refine", 0.4, 0.0, 0.99);
+  config.filter.refine_step = args.real("refine-step", config.filter.refine_step, 0.0, 100.0);
   const std::string estimate = args.text("estimate", "mean");
   if (estimate != "mean" && estimate != "best")
     throw std::invalid_argument("--estimate: expected mean or best, got '" + estimate + "'");
