@@ -18,7 +18,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 
-METHOD_STYLE = {"factored": "o-", "factored (paper injection)": "o:", "condensation": "s--",
+METHOD_STYLE = {"factored": "o-", "factored (layers only)": "o:", "condensation": "s--",
                 "annealed": "^:"}
 
 
