@@ -66,6 +66,7 @@ IncrementalBodyEvaluator::IncrementalBodyEvaluator(const BodyModel& model, const
       rasterizer_(points_per_circle),
       drawn_index_(model.segments.size(), -1),
       kinematics_(model),
+      explained_(rig.size()),
       moved_flag_(model.segments.size(), 0) {
   for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
   for (std::size_t s = 0; s < model.segments.size(); ++s) {
@@ -138,6 +139,12 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
   forwardKinematics(model_, kinematics_, q, moved_);
   trial_sums_ = sums_;
   trial_matched_ = matched_;
+  int moved_drawn = 0;
+  for (int s : moved_) moved_drawn += drawn_index_[s] >= 0;
+  // When most of the body moves (the root, the trunk, a pattern move), moving its footprints in
+  // the coverage and back again costs more than counting the whole body through the masked chain
+  // as FullBodyEvaluator does; the coverage then follows only if the trial is accepted.
+  applied_ = 2 * moved_drawn <= static_cast<int>(drawn_.size());
   for (int s : moved_) {
     const int k = drawn_index_[s];
     if (k < 0) continue;
@@ -145,9 +152,26 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
     const SegmentCounts& after = trial_counts_[k] = draw(k, 1 - slot_[k]);
     trial_sums_.area += after.area - before.area;
     trial_sums_.silhouette += after.silhouette - before.silhouette;
-    for (std::size_t c = 0; c < cameras_; ++c)
-      trial_matched_ += moveFootprint(c, footprint(k, c, slot_[k]), footprint(k, c, 1 - slot_[k]), true);
+    if (applied_)
+      for (std::size_t c = 0; c < cameras_; ++c)
+        trial_matched_ +=
+            moveFootprint(c, footprint(k, c, slot_[k]), footprint(k, c, 1 - slot_[k]), true);
     ++renders_;
+  }
+  if (!applied_) {
+    trial_matched_ = 0;
+    for (auto& e : explained_) e.clear();
+    for (std::size_t k = 0; k < drawn_.size(); ++k) {
+      const int ki = static_cast<int>(k);
+      const int slot = moved_flag_[drawn_[k]] ? 1 - slot_[k] : slot_[k];
+      for (std::size_t c = 0; c < cameras_; ++c) {
+        const Footprint& f = footprint(ki, c, slot);
+        trial_matched_ += countFootprint((*masks_)[c], f, explained_[c].data(),
+                                         static_cast<int>(explained_[c].size()))
+                              .matched;
+        explained_[c].push_back(f);
+      }
+    }
   }
   pending_ = true;
   return total(trial_sums_, trial_matched_);
@@ -158,6 +182,9 @@ void IncrementalBodyEvaluator::accept() {
   for (int s : moved_) {
     const int k = drawn_index_[s];
     if (k < 0) continue;
+    if (!applied_)
+      for (std::size_t c = 0; c < cameras_; ++c)
+        moveFootprint(c, footprint(k, c, slot_[k]), footprint(k, c, 1 - slot_[k]), false);
     slot_[k] ^= 1;
     segment_counts_[k] = trial_counts_[k];
   }
@@ -174,7 +201,7 @@ void IncrementalBodyEvaluator::reject() {
     const int s = moved_[i];
     kinematics_.world[s] = saved_world_[i];
     const int k = drawn_index_[s];
-    if (k < 0) continue;
+    if (k < 0 || !applied_) continue;
     for (std::size_t c = 0; c < cameras_; ++c)
       moveFootprint(c, footprint(k, c, 1 - slot_[k]), footprint(k, c, slot_[k]), false);
   }

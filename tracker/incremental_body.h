@@ -6,7 +6,8 @@
 // The full-body counts do not depend on the segments' order: matched = silhouette pixels covered by
 // the union of all footprints, outside and area = sums over the footprints. So the state is, per
 // camera, how many footprints cover each pixel, plus every drawn segment's footprints and its own
-// area and silhouette pixels.
+// area and silhouette pixels. A trial that moves most of the body is counted through the masked
+// chain instead, and changes the coverage only when accepted.
 #pragma once
 
 #include <cstdint>
@@ -78,6 +79,8 @@ class IncrementalBodyEvaluator {
   PixelCounts counts_;
 
   bool pending_ = false;
+  bool applied_ = false;  // the pending trial's footprints are in the coverage
+  std::vector<std::vector<Footprint>> explained_;  // per camera, scratch of the masked chain
   std::vector<char> moved_flag_;  // per segment, scratch of trial()
   std::vector<int> moved_;        // the trial's moved segments, in model order
   long renders_ = 0;
