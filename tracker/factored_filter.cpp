@@ -17,7 +17,7 @@
 #include <stdexcept>
 
 #include "tracker/filter.h"
-#include "tracker/full_body.h"
+#include "tracker/incremental_body.h"
 #include "tracker/kinematics.h"
 
 namespace mocap {
@@ -109,8 +109,8 @@ class FactoredFilter final : public PoseFilter {
       // The refinement takes what the layers leave of the budget.
       const int layer_evaluations = sampling_layers * candidates_per_layer_ + observation_layers * options.keep;
       refine_evaluations_ = std::max(2, options.evaluations_per_frame - layer_evaluations);
-      refiner_ = std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle,
-                                                     pool.size());
+      refiner_ = std::make_unique<IncrementalBodyEvaluator>(model, rig,
+                                                            options.likelihood.points_per_circle);
     }
 
     for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
@@ -440,27 +440,26 @@ class FactoredFilter final : public PoseFilter {
     particles_.swap(next_particles_);
   }
 
-  // Pattern search on the full-body likelihood from the best particle: each free DOF in layer
-  // order tries one step either side (the two evaluated in parallel), takes the better if it
-  // improves the pose, and halves its step when neither does. The result replaces the best
-  // particle, so the next frame starts from it.
   // Pattern search on the full-body likelihood from the best particle (Hooke and Jeeves): each
   // free DOF in layer order takes one step, first in the direction that last worked, then in the
   // other; a step that improves the pose is taken and grows by half, one that does not in either
   // direction halves. After each sweep over the DOFs, the whole sweep's change is tried once more
   // (the pattern move, which follows DOFs that move together). The result replaces the best
-  // particle, so the next frame starts from it.
+  // particle, so the next frame starts from it. Each trial pose counts as one full-body evaluation,
+  // but only the segments it moves are re-rasterized (IncrementalBodyEvaluator, exact).
   void refine(const std::vector<SilhouetteMask>& masks, FrameEstimate& estimate) {
     Eigen::VectorXd& q = particles_[0].q;
-    const auto score = [&](const Eigen::VectorXd& pose) {
-      return logLikelihood(options_.likelihood, refiner_->evaluate(pose, masks, 0));
-    };
-    double best = score(q);
+    const long renders_before = refiner_->renders();
+    double best = logLikelihood(options_.likelihood, refiner_->reset(q, masks));
     int budget = refine_evaluations_ - 1;
     const auto tryPose = [&](const Eigen::VectorXd& pose) {
       --budget;
-      const double value = score(pose);
-      if (value <= best) return false;
+      const double value = logLikelihood(options_.likelihood, refiner_->trial(pose));
+      if (value <= best) {
+        refiner_->reject();
+        return false;
+      }
+      refiner_->accept();
       best = value;
       q = pose;
       return true;
@@ -498,7 +497,7 @@ class FactoredFilter final : public PoseFilter {
     }
     const int spent = refine_evaluations_ - budget;
     estimate.evaluations += spent;
-    estimate.segment_renders += static_cast<long>(spent) * refiner_->drawnSegments();
+    estimate.segment_renders += refiner_->renders() - renders_before;
   }
 
   void finishFrame(FrameEstimate& estimate) {
@@ -538,7 +537,7 @@ class FactoredFilter final : public PoseFilter {
   std::vector<std::vector<int>> descendants_;  // per segment
   std::vector<RestOfBody> rest_;               // per kept particle
   int refine_evaluations_ = 0;
-  std::unique_ptr<FullBodyEvaluator> refiner_;  // only with a refine share
+  std::unique_ptr<IncrementalBodyEvaluator> refiner_;  // only with a refine share
   std::vector<double> refine_steps_;            // per DOF layer
 };
 

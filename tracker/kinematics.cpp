@@ -20,12 +20,24 @@ Eigen::Isometry3d localTransform(const BodyModel& model, int s, const Eigen::Vec
   return t;
 }
 
+namespace {
+
+// The one placement step both versions share, so they give the same bits.
+void place(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& q, int s) {
+  const int parent = model.segments[s].parent;
+  const Eigen::Isometry3d local = localTransform(model, s, q);
+  data.world[s] = parent < 0 ? local : data.world[parent] * local;
+}
+
+}  // namespace
+
 void forwardKinematics(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& q) {
-  for (std::size_t s = 0; s < model.segments.size(); ++s) {
-    const int parent = model.segments[s].parent;
-    const Eigen::Isometry3d local = localTransform(model, static_cast<int>(s), q);
-    data.world[s] = parent < 0 ? local : data.world[parent] * local;
-  }
+  for (std::size_t s = 0; s < model.segments.size(); ++s) place(model, data, q, static_cast<int>(s));
+}
+
+void forwardKinematics(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& q,
+                       const std::vector<int>& segments) {
+  for (int s : segments) place(model, data, q, s);
 }
 
 std::vector<Eigen::Vector3d> pointPositions(const BodyModel& model, const KinematicsData& data) {

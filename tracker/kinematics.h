@@ -22,6 +22,11 @@ Eigen::Isometry3d localTransform(const BodyModel& model, int s, const Eigen::Vec
 // world[s] = world[parent] * localTransform(s) for every segment.
 void forwardKinematics(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& q);
 
+// The same for `segments` only (in model order), keeping the others' transforms: the whole body
+// when they are every segment whose DOFs or ancestors' DOFs changed since data was last placed.
+void forwardKinematics(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& q,
+                       const std::vector<int>& segments);
+
 // World positions of all model points, after forwardKinematics.
 std::vector<Eigen::Vector3d> pointPositions(const BodyModel& model, const KinematicsData& data);
 

@@ -3,7 +3,8 @@
 // one segment likelihood evaluation (rasterize one finger segment in 3 cameras and count it against
 // the masked silhouettes), and that evaluation's two halves separately. On the human body (the CMU
 // walk, 2 cameras at 780x580, set up as `mocap-experiment human` does): one factored step of 2000
-// evaluations with the experiment's defaults and with the paper's options. Threads: the Arg.
+// evaluations with the experiment's defaults (without and with the full-body refinement) and with
+// the paper's options. The hand step also with a refinement. Threads: the Arg.
 #include <utility>
 
 #include <benchmark/benchmark.h>
@@ -57,13 +58,18 @@ void trackSteps(benchmark::State& state, const TrackingSetup& s, const char* met
       benchmark::Counter(static_cast<double>(evaluations) / state.iterations());
 }
 
-void filterStep(benchmark::State& state, const char* method) {
-  trackSteps(state, setup(), method, FilterOptions());
+void filterStep(benchmark::State& state, const char* method, double refine_share = 0) {
+  FilterOptions options;
+  options.refine_share = refine_share;
+  trackSteps(state, setup(), method, options);
 }
 
 void BM_FactoredStep375(benchmark::State& state) { filterStep(state, "factored"); }
+// With the full-body refinement taking a fifth of the budget (`mocap-experiment hand --refine 0.2`).
+void BM_FactoredStep375Refined(benchmark::State& state) { filterStep(state, "factored", 0.2); }
 void BM_CondensationStep375(benchmark::State& state) { filterStep(state, "condensation"); }
 BENCHMARK(BM_FactoredStep375)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
+BENCHMARK(BM_FactoredStep375Refined)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
 BENCHMARK(BM_CondensationStep375)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 // One particle evaluation of the factored filter: the index middle phalanx (frame 10) against the
@@ -147,24 +153,36 @@ TrackingSetup& humanSetup() {
 }
 
 void humanStep(benchmark::State& state, FilterOptions::Lookahead lookahead,
-               FilterOptions::Injection injection, double injection_share) {
+               FilterOptions::Injection injection, double injection_share,
+               double refine_share = 0) {
   FilterOptions options;
   options.evaluations_per_frame = 2000;
+  options.refine_share = refine_share;
   options.lookahead = lookahead;
   options.injection = injection;
   options.injection_share = injection_share;
   trackSteps(state, humanSetup(), "factored", options);
 }
 
-// `mocap-experiment human`'s defaults: whole-body look-ahead, segment injection, 5 % injected.
+// `mocap-experiment human`'s defaults without the refinement: whole-body look-ahead, segment
+// injection, 5 % injected.
 void BM_HumanFactoredStep2000(benchmark::State& state) {
   humanStep(state, FilterOptions::Lookahead::kBody, FilterOptions::Injection::kSegment, 0.05);
+}
+// The same with the refinement taking 40 % of the budget: the experiment's full defaults.
+void BM_HumanFactoredStep2000Refined(benchmark::State& state) {
+  humanStep(state, FilterOptions::Lookahead::kBody, FilterOptions::Injection::kSegment, 0.05, 0.4);
 }
 // The paper's options: no look-ahead, DOF injection, 2 % injected.
 void BM_HumanFactoredStep2000Paper(benchmark::State& state) {
   humanStep(state, FilterOptions::Lookahead::kNone, FilterOptions::Injection::kDof, 0.02);
 }
 BENCHMARK(BM_HumanFactoredStep2000)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
+BENCHMARK(BM_HumanFactoredStep2000Refined)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
 BENCHMARK(BM_HumanFactoredStep2000Paper)
     ->Arg(1)
     ->Arg(2)

@@ -1,0 +1,142 @@
+// The incremental full-body evaluator: after a reset and along a random sequence of trials (one DOF,
+// or several at once like the pattern move), accepted or rejected at random, every count equals
+// FullBodyEvaluator::evaluate's for the same pose, a rejected trial leaves the state as it was, and
+// the coverage always equals that of a fresh reset at the current pose. On the hand and the human.
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "tests/tracker/filter_test_support.h"
+#include "tracker/builtin_models.h"
+#include "tracker/bvh.h"
+#include "tracker/experiments/human_experiment.h"
+#include "tracker/full_body.h"
+#include "tracker/incremental_body.h"
+#include "tracker/motion.h"
+#include "tracker/retarget.h"
+#include "tracker/scene.h"
+
+namespace mocap {
+namespace {
+
+void expectSameCounts(const PixelCounts& a, const PixelCounts& b, const std::string& what) {
+  EXPECT_EQ(a.matched, b.matched) << what;
+  EXPECT_EQ(a.outside, b.outside) << what;
+  EXPECT_EQ(a.area, b.area) << what;
+}
+
+std::vector<SilhouetteMask> render(const BodyModel& model, const Rig& rig, const Eigen::VectorXd& q) {
+  SceneRenderer renderer(model, rig);
+  std::vector<SilhouetteMask> out;
+  for (const cv::Mat& image : renderer.renderSilhouettes(q)) out.emplace_back(image);
+  return out;
+}
+
+// Random trials from `start` against the silhouettes of `truth`; steps of up to `speeds` speed
+// limits, so footprints move by a few pixels to many.
+void checkRandomTrials(const BodyModel& model, const Rig& rig, const Eigen::VectorXd& truth,
+                       const Eigen::VectorXd& start, int trials, unsigned seed, double speeds) {
+  const auto masks = render(model, rig, truth);
+  FullBodyEvaluator full(model, rig, LikelihoodParams().points_per_circle, 1);
+  IncrementalBodyEvaluator incremental(model, rig, LikelihoodParams().points_per_circle);
+  expectSameCounts(incremental.reset(start, masks), full.evaluate(start, masks, 0), "reset");
+  ASSERT_GT(incremental.counts().matched, 1000) << "area " << incremental.counts().area;
+  std::vector<int> free_dofs;
+  for (std::size_t d = 0; d < model.dofs.size(); ++d)
+    if (model.dofs[d].isFree()) free_dofs.push_back(static_cast<int>(d));
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> step(-speeds, speeds);
+  int accepted = 0;
+  for (int t = 0; t < trials; ++t) {
+    Eigen::VectorXd q = incremental.pose();
+    const int changed = rng() % 8 == 0 ? 1 + static_cast<int>(rng() % free_dofs.size()) : 1;
+    for (int i = 0; i < changed; ++i) {
+      const int d = free_dofs[rng() % free_dofs.size()];
+      q[d] += step(rng) * model.dofs[d].max_speed;
+    }
+    clampToLimits(model, q);
+    const std::string what = "trial " + std::to_string(t);
+    const PixelCounts before = incremental.counts();
+    const Eigen::VectorXd pose_before = incremental.pose();
+    std::vector<std::vector<uint8_t>> coverage_before;
+    for (std::size_t c = 0; c < rig.size(); ++c) coverage_before.push_back(incremental.coverage(c));
+    expectSameCounts(incremental.trial(q), full.evaluate(q, masks, 0), what);
+    if (rng() % 2) {
+      incremental.accept();
+      ++accepted;
+      EXPECT_EQ(incremental.pose(), q) << what;
+      expectSameCounts(incremental.counts(), full.evaluate(q, masks, 0), what + " accepted");
+    } else {
+      incremental.reject();
+      EXPECT_EQ(incremental.pose(), pose_before) << what;
+      expectSameCounts(incremental.counts(), before, what + " rejected");
+      for (std::size_t c = 0; c < rig.size(); ++c)
+        ASSERT_EQ(incremental.coverage(c), coverage_before[c]) << what << " rejected, camera " << c;
+    }
+  }
+  EXPECT_GT(accepted, trials / 4);
+  // The coverage built trial by trial is the one a fresh evaluation of the final pose builds.
+  IncrementalBodyEvaluator fresh(model, rig, LikelihoodParams().points_per_circle);
+  expectSameCounts(fresh.reset(incremental.pose(), masks), incremental.counts(), "final");
+  for (std::size_t c = 0; c < rig.size(); ++c)
+    EXPECT_EQ(fresh.coverage(c), incremental.coverage(c)) << "camera " << c;
+}
+
+TEST(IncrementalBodyEvaluator, HandTrialsMatchTheFullEvaluation) {
+  testing_support::HandScene scene;
+  const Eigen::VectorXd truth = generateMotion(scene.model, 1, 9)[0];
+  checkRandomTrials(scene.model, scene.rig, truth, scene.perturbed(truth, 2.0), 400, 1, 1.5);
+  // Large steps: footprints jump clear of where they were.
+  checkRandomTrials(scene.model, scene.rig, truth, scene.perturbed(truth, 2.0), 200, 2, 8.0);
+}
+
+// The human as `mocap-experiment human` sets it up (the CMU walk, fitted and retargeted, the lab
+// rig), at half the resolution.
+TEST(IncrementalBodyEvaluator, HumanTrialsMatchTheFullEvaluation) {
+  const std::string path = std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh";
+  if (!std::filesystem::exists(path))
+    GTEST_SKIP() << "shared motion data not found (configure with -DMOCAP_SHARED_DIR=...)";
+  const Bvh bvh = loadBvh(path);
+  const BodyModel model = fitModelToBvh(builtinHumanModel(), bvh.skeleton);
+  const Motion motion = retargetBvh(model, bvh.skeleton, bvh.motion, 25, 10).motion;
+  const Rig rig = labRig(2, model, motion, 390, 290);
+  checkRandomTrials(model, rig, motion[9], motion[5], 300, 3, 2.0);
+}
+
+TEST(IncrementalBodyEvaluator, ResetClearsThePreviousFrame) {
+  testing_support::HandScene scene;
+  const Motion motion = generateMotion(scene.model, 2, 4);
+  IncrementalBodyEvaluator incremental(scene.model, scene.rig, LikelihoodParams().points_per_circle);
+  const auto first = scene.masks(motion[0]), second = scene.masks(motion[1]);
+  incremental.reset(motion[0], first);
+  incremental.trial(motion[1]);  // left pending: the reset drops it
+  incremental.reset(motion[1], second);
+  IncrementalBodyEvaluator fresh(scene.model, scene.rig, LikelihoodParams().points_per_circle);
+  expectSameCounts(fresh.reset(motion[1], second), incremental.counts(), "second frame");
+  for (std::size_t c = 0; c < scene.rig.size(); ++c)
+    EXPECT_EQ(fresh.coverage(c), incremental.coverage(c)) << "camera " << c;
+}
+
+TEST(IncrementalBodyEvaluator, RasterizesOnlyTheMovedSubtree) {
+  testing_support::HandScene scene;
+  const Eigen::VectorXd q = scene.model.neutralPose();
+  IncrementalBodyEvaluator incremental(scene.model, scene.rig, LikelihoodParams().points_per_circle);
+  const auto masks = scene.masks(q);  // the evaluator keeps them
+  incremental.reset(q, masks);
+  const long after_reset = incremental.renders();
+  // A fingertip's DOF moves that one segment only.
+  const int tip = scene.model.segmentIndex("index_3");
+  ASSERT_GE(tip, 0);
+  ASSERT_FALSE(scene.model.segments[tip].dofs.empty());
+  Eigen::VectorXd moved = q;
+  const int d = scene.model.segments[tip].dofs[0];
+  moved[d] = scene.model.dofs[d].min + 0.5 * (scene.model.dofs[d].max - scene.model.dofs[d].min);
+  ASSERT_NE(moved[d], q[d]);
+  incremental.trial(moved);
+  incremental.reject();
+  EXPECT_EQ(incremental.renders() - after_reset, 1);
+}
+
+}  // namespace
+}  // namespace mocap
