@@ -470,6 +470,7 @@ class FactoredFilter final : public PoseFilter {
     Eigen::VectorXd tried;
     while (budget > 0) {
       const Eigen::VectorXd sweep_start = q;
+      const int budget_before_sweep = budget;
       int k = 0;
       for (const Layer& layer : layers_) {
         if (layer.dof < 0) continue;
@@ -489,6 +490,9 @@ class FactoredFilter final : public PoseFilter {
         }
         if (!moved) step *= 0.5;
       }
+      // Every step has shrunk below what moves a DOF (or every DOF sits at a limit): nothing
+      // left to try, so stop rather than loop forever on the unspent budget.
+      if (budget == budget_before_sweep) break;
       if (budget > 0 && q != sweep_start) {
         tried = 2 * q - sweep_start;
         clampToLimits(model_, tried);

@@ -108,6 +108,23 @@ TEST(FactoredFilter, RefinementEndsNearerTheTruthAtTheSameBudget) {
   EXPECT_LT(error[1], 0.7 * error[0]) << "refined " << error[1] << " m, layers only " << error[0] << " m";
 }
 
+// A budget far beyond what a converged pose needs: the steps shrink until they no longer move a
+// DOF, and the search must stop there instead of spinning on the budget it cannot spend.
+TEST(FactoredFilter, RefinementStopsWhenNoStepMovesAnyMore) {
+  HandScene scene;
+  const Eigen::VectorXd truth = generateMotion(scene.model, 1, 9)[0];
+  const auto masks = scene.masks(truth);
+  FilterOptions options;
+  options.evaluations_per_frame = 100000;
+  options.refine_share = 0.95;
+  WorkerPool pool(1);
+  auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
+  filter->reset(truth);
+  const FrameEstimate e = filter->step(masks);
+  EXPECT_LT(e.evaluations, options.evaluations_per_frame);
+  EXPECT_LT(scene.pointError(e.q, truth), 0.002);
+}
+
 TEST(FactoredFilter, RefinementDoesNotDependOnTheThreadCount) {
   FilterOptions options;
   options.refine_share = 0.4;
