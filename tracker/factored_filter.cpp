@@ -109,6 +109,9 @@ class FactoredFilter final : public PoseFilter {
       // The refinement takes what the layers leave of the budget.
       const int layer_evaluations = sampling_layers * candidates_per_layer_ + observation_layers * options.keep;
       refine_evaluations_ = std::max(2, options.evaluations_per_frame - layer_evaluations);
+      for (const Layer& layer : layers_)
+        if (layer.dof >= 0) refine_dofs_.push_back(layer.dof);
+      refine_steps_.resize(refine_dofs_.size());
       refiner_ = std::make_unique<IncrementalBodyEvaluator>(model, rig,
                                                             options.likelihood.points_per_circle);
     }
@@ -464,25 +467,23 @@ class FactoredFilter final : public PoseFilter {
       q = pose;
       return true;
     };
-    refine_steps_.clear();
-    for (const Layer& layer : layers_)
-      if (layer.dof >= 0) refine_steps_.push_back(options_.refine_step * model_.dofs[layer.dof].max_speed);
-    Eigen::VectorXd tried;
+    for (std::size_t i = 0; i < refine_dofs_.size(); ++i)
+      refine_steps_[i] = options_.refine_step * model_.dofs[refine_dofs_[i]].max_speed;
+    Eigen::VectorXd& tried = refine_trial_;
+    Eigen::VectorXd& sweep_start = refine_sweep_start_;
     while (budget > 0) {
-      const Eigen::VectorXd sweep_start = q;
+      sweep_start = q;
       const int budget_before_sweep = budget;
-      int k = 0;
-      for (const Layer& layer : layers_) {
-        if (layer.dof < 0) continue;
-        if (budget <= 0) break;
-        const Dof& dof = model_.dofs[layer.dof];
-        double& step = refine_steps_[k++];  // signed: the direction that last worked
+      for (std::size_t i = 0; i < refine_dofs_.size() && budget > 0; ++i) {
+        const int d = refine_dofs_[i];
+        const Dof& dof = model_.dofs[d];
+        double& step = refine_steps_[i];  // signed: the direction that last worked
         bool moved = false;
         for (const double signed_step : {step, -step}) {
           if (budget <= 0) break;
           tried = q;
-          tried[layer.dof] = std::clamp(q[layer.dof] + signed_step, dof.min, dof.max);
-          if (tried[layer.dof] == q[layer.dof]) continue;
+          tried[d] = std::clamp(q[d] + signed_step, dof.min, dof.max);
+          if (tried[d] == q[d]) continue;
           if ((moved = tryPose(tried))) {
             step = 1.5 * signed_step;
             break;
@@ -542,7 +543,9 @@ class FactoredFilter final : public PoseFilter {
   std::vector<RestOfBody> rest_;               // per kept particle
   int refine_evaluations_ = 0;
   std::unique_ptr<IncrementalBodyEvaluator> refiner_;  // only with a refine share
-  std::vector<double> refine_steps_;            // per DOF layer
+  std::vector<int> refine_dofs_;                // the free DOFs, in layer order
+  std::vector<double> refine_steps_;            // per refined DOF
+  Eigen::VectorXd refine_trial_, refine_sweep_start_;  // scratch of refine()
 };
 
 }  // namespace

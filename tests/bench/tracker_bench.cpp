@@ -152,31 +152,24 @@ TrackingSetup& humanSetup() {
   return s;
 }
 
-void humanStep(benchmark::State& state, FilterOptions::Lookahead lookahead,
-               FilterOptions::Injection injection, double injection_share,
-               double refine_share = 0) {
-  FilterOptions options;
+void humanStep(benchmark::State& state, FilterOptions options) {
   options.evaluations_per_frame = 2000;
-  options.refine_share = refine_share;
-  options.lookahead = lookahead;
-  options.injection = injection;
-  options.injection_share = injection_share;
   trackSteps(state, humanSetup(), "factored", options);
 }
 
 // `mocap-experiment human`'s defaults without the refinement: whole-body look-ahead, segment
 // injection, 5 % injected.
 void BM_HumanFactoredStep2000(benchmark::State& state) {
-  humanStep(state, FilterOptions::Lookahead::kBody, FilterOptions::Injection::kSegment, 0.05);
+  FilterOptions options = humanFilterDefaults();
+  options.refine_share = 0;
+  humanStep(state, options);
 }
-// The same with the refinement taking 40 % of the budget: the experiment's full defaults.
+// The experiment's full defaults: the same with the refinement taking 40 % of the budget.
 void BM_HumanFactoredStep2000Refined(benchmark::State& state) {
-  humanStep(state, FilterOptions::Lookahead::kBody, FilterOptions::Injection::kSegment, 0.05, 0.4);
+  humanStep(state, humanFilterDefaults());
 }
-// The paper's options: no look-ahead, DOF injection, 2 % injected.
-void BM_HumanFactoredStep2000Paper(benchmark::State& state) {
-  humanStep(state, FilterOptions::Lookahead::kNone, FilterOptions::Injection::kDof, 0.02);
-}
+// The paper's options: no look-ahead, DOF injection, 2 % injected, no refinement.
+void BM_HumanFactoredStep2000Paper(benchmark::State& state) { humanStep(state, FilterOptions()); }
 BENCHMARK(BM_HumanFactoredStep2000)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->UseRealTime();
 BENCHMARK(BM_HumanFactoredStep2000Refined)
     ->Arg(1)

@@ -144,6 +144,15 @@ std::vector<Limb> limbsOf(const BodyModel& model) {
 
 }  // namespace
 
+FilterOptions humanFilterDefaults() {
+  FilterOptions options;
+  options.lookahead = FilterOptions::Lookahead::kBody;
+  options.injection = FilterOptions::Injection::kSegment;
+  options.injection_share = 0.05;
+  options.refine_share = 0.4;
+  return options;
+}
+
 nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (config.dofs != 31 && config.dofs != 17)
     throw std::invalid_argument("--dofs: expected 31 or 17");
@@ -335,18 +344,15 @@ int runHumanCommand(int argc, char** argv) {
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");
-  // The human body's defaults (chosen on the walk, seeds 1-3; see docs/human.md): 5 % of the
-  // candidates injected, a segment's angles at once.
-  config.filter.injection_share = args.real("injection", 0.05, 0.0, 0.99);
-  config.filter.injection = parseInjection(args.text("inject", "segment"));
+  config.filter.injection_share =
+      args.real("injection", config.filter.injection_share, 0.0, 0.99);
+  if (args.has("inject")) config.filter.injection = parseInjection(args.text("inject", ""));
   config.filter.keep = static_cast<int>(args.integer("keep", config.filter.keep, 1, 100000));
   config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));
   config.filter.annealing_layers =
       static_cast<int>(args.integer("layers", config.filter.annealing_layers, 1, 100));
-  config.filter.lookahead = parseLookahead(args.text("lookahead", "body"));
-  // 40 % of the factored budget on the full-body pattern search after the layers (chosen on the
-  // walk, seeds 1-3, among 0.3-0.9; see docs/human.md).
-  config.filter.refine_share = args.real("refine", 0.4, 0.0, 0.99);
+  if (args.has("lookahead")) config.filter.lookahead = parseLookahead(args.text("lookahead", ""));
+  config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
   config.filter.refine_step = args.real("refine-step", config.filter.refine_step, 0.0, 100.0);
   const std::string estimate = args.text("estimate", "mean");
   if (estimate != "mean" && estimate != "best")

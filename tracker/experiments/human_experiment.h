@@ -30,6 +30,12 @@ Rig labRig(int cameras, const BodyModel& model, const Motion& motion, int width 
 // segment in the SceneRenderer.)
 void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera);
 
+// The factored filter's options for the human body, chosen on the walk (seeds 1-3; see
+// docs/human.md): look-ahead over the whole body, 5 % of the candidates injected with a segment's
+// angles at once, and 40 % of the budget on the full-body refinement. The paper's options differ
+// in all three (none, one DOF at 2 %, no refinement).
+FilterOptions humanFilterDefaults();
+
 struct HumanExperimentConfig {
   std::string motion_path;          // BVH (CMU skeleton)
   std::string method = "factored";
@@ -47,7 +53,7 @@ struct HumanExperimentConfig {
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none
-  FilterOptions filter;             // evaluations and seed come from the fields above
+  FilterOptions filter = humanFilterDefaults();  // evaluations and seed: the fields above
 };
 
 nlohmann::json runHumanExperiment(const HumanExperimentConfig& config);
