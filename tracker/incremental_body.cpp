@@ -1,58 +1,14 @@
-// Incremental full-body evaluation: subtree kinematics, re-rasterization of the moved segments,
-// and per-row differences of their footprints applied to the coverage counts.
+// Incremental full-body evaluation: subtree kinematics, re-rasterization of the moved segments, and
+// their masked chain over the footprints of the segments that stand still.
 #include "tracker/incremental_body.h"
 
 #include <algorithm>
 #include <cstring>
-#include <limits>
 #include <stdexcept>
 
 namespace mocap {
 
 namespace {
-
-using Row = SilhouetteMask::Row;
-
-// Adds kDelta (+1 or -1) covers to columns [a, b) of `row`. With `sil`, returns the silhouette
-// pixels whose cover changes between none and some: gained by an add, lost by a removal. Those
-// pixels are usually all or none of the interval; otherwise they come in runs, one lookup each.
-template <int kDelta>
-long adjust(uint8_t* row, const Row* sil, int a, int b) {
-  if (a >= b) return 0;
-  long changed = 0;
-  if (sil) {
-    constexpr uint8_t kEdge = kDelta > 0 ? 0 : 1;  // the cover that changes the union
-    int edge = 0;
-    for (int x = a; x < b; ++x) edge += row[x] == kEdge;
-    if (edge == b - a) {
-      changed = sil->count(a, b);
-    } else if (edge > 0) {
-      int run = -1;
-      for (int x = a; x < b; ++x) {
-        if (row[x] == kEdge) {
-          if (run < 0) run = x;
-        } else if (run >= 0) {
-          changed += sil->count(run, x);
-          run = -1;
-        }
-      }
-      if (run >= 0) changed += sil->count(run, b);
-    }
-  }
-  for (int x = a; x < b; ++x) row[x] = static_cast<uint8_t>(row[x] + kDelta);
-  return changed;
-}
-
-// Row y of `f` as [a, b); an empty row as [0, 0), so the interval arithmetic below holds.
-void spanAt(const Footprint& f, int y, int& a, int& b) {
-  a = b = 0;
-  if (y < f.y0 || y >= f.y1) return;
-  const RowSpan s = f.spans[y - f.y0];
-  if (s.x0 < s.x1) {
-    a = s.x0;
-    b = s.x1;
-  }
-}
 
 bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
@@ -66,23 +22,20 @@ IncrementalBodyEvaluator::IncrementalBodyEvaluator(const BodyModel& model, const
       rasterizer_(points_per_circle),
       drawn_index_(model.segments.size(), -1),
       kinematics_(model),
-      explained_(rig.size()),
-      moved_flag_(model.segments.size(), 0) {
+      moved_flag_(model.segments.size(), 0),
+      rest_explained_(rig.size()) {
   for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
   for (std::size_t s = 0; s < model.segments.size(); ++s) {
     if (model.segments[s].shape.type == ShapeType::kNone) continue;
     drawn_index_[s] = static_cast<int>(drawn_.size());
     drawn_.push_back(static_cast<int>(s));
   }
-  if (drawn_.size() > std::numeric_limits<uint8_t>::max())
-    throw std::invalid_argument("incremental body evaluator: too many drawn segments");
   spans_.resize(drawn_.size() * 2 * cameras_ * max_rows_);
   footprints_.resize(drawn_.size() * 2 * cameras_);
   slot_.assign(drawn_.size(), 0);
   segment_counts_.resize(drawn_.size());
   trial_counts_.resize(drawn_.size());
-  for (const CameraModel& c : rig)
-    coverage_.emplace_back(static_cast<std::size_t>(c.width) * c.height, 0);
+  for (auto& e : rest_explained_) e.reserve(drawn_.size());
 }
 
 PixelCounts IncrementalBodyEvaluator::reset(const Eigen::VectorXd& q,
@@ -92,28 +45,26 @@ PixelCounts IncrementalBodyEvaluator::reset(const Eigen::VectorXd& q,
   for (std::size_t c = 0; c < cameras_; ++c)
     if (masks[c].width() != rig_[c].width || masks[c].height() != rig_[c].height)
       throw std::invalid_argument("incremental body evaluator: mask size differs from the camera's");
-  if (pending_) reject();
-  // The previous pose's covers are taken off again, which leaves the coverage all zero.
-  for (std::size_t k = 0; k < drawn_.size(); ++k)
-    for (std::size_t c = 0; c < cameras_; ++c) {
-      Footprint& f = footprint(static_cast<int>(k), c, slot_[k]);
-      moveFootprint(c, f, Footprint(), false);
-      f = Footprint();
-    }
+  pending_ = false;
+  rest_valid_ = false;
   masks_ = &masks;
   q_ = q;
   forwardKinematics(model_, kinematics_, q);
-  sums_ = SegmentCounts();
-  matched_ = 0;
+  // The whole body is the moved set over an empty rest.
+  moved_drawn_.resize(drawn_.size());
   for (std::size_t k = 0; k < drawn_.size(); ++k) {
-    const int ki = static_cast<int>(k);
-    segment_counts_[k] = draw(ki, slot_[k]);
-    sums_.area += segment_counts_[k].area;
-    sums_.silhouette += segment_counts_[k].silhouette;
-    for (std::size_t c = 0; c < cameras_; ++c)
-      matched_ += moveFootprint(c, Footprint(), footprint(ki, c, slot_[k]), true);
+    moved_drawn_[k] = static_cast<int>(k);
+    draw(static_cast<int>(k), slot_[k]);
   }
   renders_ += static_cast<long>(drawn_.size());
+  for (auto& e : rest_explained_) e.clear();
+  matched_ = movedOverRest(false);
+  sums_ = SegmentCounts();
+  for (std::size_t k = 0; k < drawn_.size(); ++k) {
+    segment_counts_[k] = trial_counts_[k];
+    sums_.area += segment_counts_[k].area;
+    sums_.silhouette += segment_counts_[k].silhouette;
+  }
   counts_ = total(sums_, matched_);
   return counts_;
 }
@@ -127,51 +78,27 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
   // A segment moves if one of its DOFs changed (to the bit: the full evaluation would see any
   // difference) or its parent moved.
   moved_.clear();
+  moved_drawn_.clear();
   for (std::size_t s = 0; s < model_.segments.size(); ++s) {
     const Segment& seg = model_.segments[s];
     bool moved = seg.parent >= 0 && moved_flag_[seg.parent];
     for (int d : seg.dofs) moved = moved || !sameBits(q[d], q_[d]);
     moved_flag_[s] = moved;
-    if (moved) moved_.push_back(static_cast<int>(s));
+    if (!moved) continue;
+    moved_.push_back(static_cast<int>(s));
+    if (drawn_index_[s] >= 0) moved_drawn_.push_back(drawn_index_[s]);
   }
   saved_world_.resize(moved_.size());
   for (std::size_t i = 0; i < moved_.size(); ++i) saved_world_[i] = kinematics_.world[moved_[i]];
+  if (!rest_valid_ || rest_of_ != moved_drawn_) restFor();
   forwardKinematics(model_, kinematics_, q, moved_);
+  for (int k : moved_drawn_) draw(k, 1 - slot_[k]);
+  renders_ += static_cast<long>(moved_drawn_.size());
+  trial_matched_ = rest_matched_ + movedOverRest(true);
   trial_sums_ = sums_;
-  trial_matched_ = matched_;
-  int moved_drawn = 0;
-  for (int s : moved_) moved_drawn += drawn_index_[s] >= 0;
-  // When most of the body moves (the root, the trunk, a pattern move), moving its footprints in
-  // the coverage and back again costs more than counting the whole body through the masked chain
-  // as FullBodyEvaluator does; the coverage then follows only if the trial is accepted.
-  applied_ = 2 * moved_drawn <= static_cast<int>(drawn_.size());
-  for (int s : moved_) {
-    const int k = drawn_index_[s];
-    if (k < 0) continue;
-    const SegmentCounts& before = segment_counts_[k];
-    const SegmentCounts& after = trial_counts_[k] = draw(k, 1 - slot_[k]);
-    trial_sums_.area += after.area - before.area;
-    trial_sums_.silhouette += after.silhouette - before.silhouette;
-    if (applied_)
-      for (std::size_t c = 0; c < cameras_; ++c)
-        trial_matched_ +=
-            moveFootprint(c, footprint(k, c, slot_[k]), footprint(k, c, 1 - slot_[k]), true);
-    ++renders_;
-  }
-  if (!applied_) {
-    trial_matched_ = 0;
-    for (auto& e : explained_) e.clear();
-    for (std::size_t k = 0; k < drawn_.size(); ++k) {
-      const int ki = static_cast<int>(k);
-      const int slot = moved_flag_[drawn_[k]] ? 1 - slot_[k] : slot_[k];
-      for (std::size_t c = 0; c < cameras_; ++c) {
-        const Footprint& f = footprint(ki, c, slot);
-        trial_matched_ += countFootprint((*masks_)[c], f, explained_[c].data(),
-                                         static_cast<int>(explained_[c].size()))
-                              .matched;
-        explained_[c].push_back(f);
-      }
-    }
+  for (int k : moved_drawn_) {
+    trial_sums_.area += trial_counts_[k].area - segment_counts_[k].area;
+    trial_sums_.silhouette += trial_counts_[k].silhouette - segment_counts_[k].silhouette;
   }
   pending_ = true;
   return total(trial_sums_, trial_matched_);
@@ -179,12 +106,8 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
 
 void IncrementalBodyEvaluator::accept() {
   if (!pending_) return;
-  for (int s : moved_) {
-    const int k = drawn_index_[s];
-    if (k < 0) continue;
-    if (!applied_)
-      for (std::size_t c = 0; c < cameras_; ++c)
-        moveFootprint(c, footprint(k, c, slot_[k]), footprint(k, c, 1 - slot_[k]), false);
+  // The rest stands where it stood, so its footprints and matched(R) stay valid.
+  for (int k : moved_drawn_) {
     slot_[k] ^= 1;
     segment_counts_[k] = trial_counts_[k];
   }
@@ -197,57 +120,53 @@ void IncrementalBodyEvaluator::accept() {
 
 void IncrementalBodyEvaluator::reject() {
   if (!pending_) return;
-  for (std::size_t i = 0; i < moved_.size(); ++i) {
-    const int s = moved_[i];
-    kinematics_.world[s] = saved_world_[i];
-    const int k = drawn_index_[s];
-    if (k < 0 || !applied_) continue;
-    for (std::size_t c = 0; c < cameras_; ++c)
-      moveFootprint(c, footprint(k, c, 1 - slot_[k]), footprint(k, c, slot_[k]), false);
-  }
+  for (std::size_t i = 0; i < moved_.size(); ++i) kinematics_.world[moved_[i]] = saved_world_[i];
   pending_ = false;
 }
 
-IncrementalBodyEvaluator::SegmentCounts IncrementalBodyEvaluator::draw(int k, int slot) {
-  const int s = drawn_[k];
-  SegmentCounts counts;
-  for (std::size_t c = 0; c < cameras_; ++c) {
-    RowSpan* buffer = &spans_[((static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c) * max_rows_];
-    Footprint& f = footprint(k, c, slot);
-    f = rasterizer_.rasterize(model_.segments[s].shape, kinematics_.world[s], rig_[c], buffer);
-    // Alone, nothing explained: matched is every silhouette pixel of the footprint.
-    const PixelCounts alone = countFootprint((*masks_)[c], f, nullptr, 0);
-    counts.area += alone.area;
-    counts.silhouette += alone.matched;
+void IncrementalBodyEvaluator::restFor() {
+  for (auto& e : rest_explained_) e.clear();
+  std::size_t next_moved = 0;
+  for (std::size_t k = 0; k < drawn_.size(); ++k) {
+    if (next_moved < moved_drawn_.size() && moved_drawn_[next_moved] == static_cast<int>(k)) {
+      ++next_moved;
+      continue;
+    }
+    for (std::size_t c = 0; c < cameras_; ++c)
+      rest_explained_[c].push_back(footprint(static_cast<int>(k), c, slot_[k]));
   }
-  return counts;
+  rest_matched_ = matched_ - movedOverRest(false);
+  rest_of_ = moved_drawn_;
+  rest_valid_ = true;
 }
 
-long IncrementalBodyEvaluator::moveFootprint(std::size_t c, const Footprint& from,
-                                             const Footprint& to, bool count) {
-  if (from.empty() && to.empty()) return 0;
-  const int y0 = from.empty() ? to.y0 : to.empty() ? from.y0 : std::min(from.y0, to.y0);
-  const int y1 = from.empty() ? to.y1 : to.empty() ? from.y1 : std::max(from.y1, to.y1);
-  const int width = rig_[c].width;
-  uint8_t* const coverage = coverage_[c].data();
-  const SilhouetteMask& mask = (*masks_)[c];
-  long delta = 0;
-  for (int y = y0; y < y1; ++y) {
-    int a0, b0, a1, b1;
-    spanAt(from, y, a0, b0);
-    spanAt(to, y, a1, b1);
-    if (a0 == a1 && b0 == b1) continue;  // the usual row of a small move: nothing changes
-    uint8_t* row = coverage + static_cast<std::size_t>(y) * width;
-    const Row sil_row = mask.row(y);
-    const Row* sil = count ? &sil_row : nullptr;
-    // Covers come off what `from` has and `to` lacks (at most two intervals), and the reverse
-    // gains them. Taking off first keeps every count within the footprints that hold it.
-    delta -= adjust<-1>(row, sil, a0, std::min(b0, a1));
-    delta -= adjust<-1>(row, sil, std::max(a0, b1), b0);
-    delta += adjust<+1>(row, sil, a1, std::min(b1, a0));
-    delta += adjust<+1>(row, sil, std::max(a1, b0), b1);
+long IncrementalBodyEvaluator::movedOverRest(bool trial) {
+  long matched = 0;
+  for (int k : moved_drawn_) trial_counts_[k] = SegmentCounts();
+  for (std::size_t c = 0; c < cameras_; ++c) {
+    std::vector<Footprint>& explained = rest_explained_[c];
+    const std::size_t rest = explained.size();
+    for (int k : moved_drawn_) {
+      const Footprint& f = footprint(k, c, trial ? 1 - slot_[k] : slot_[k]);
+      const PixelCounts counts = countFootprint((*masks_)[c], f, explained.data(),
+                                                static_cast<int>(explained.size()));
+      matched += counts.matched;
+      trial_counts_[k].area += counts.area;
+      trial_counts_[k].silhouette += counts.area - counts.outside;
+      explained.push_back(f);
+    }
+    explained.resize(rest);
   }
-  return delta;
+  return matched;
+}
+
+void IncrementalBodyEvaluator::draw(int k, int slot) {
+  const int s = drawn_[k];
+  for (std::size_t c = 0; c < cameras_; ++c) {
+    RowSpan* buffer = &spans_[((static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c) * max_rows_];
+    footprint(k, c, slot) =
+        rasterizer_.rasterize(model_.segments[s].shape, kinematics_.world[s], rig_[c], buffer);
+  }
 }
 
 PixelCounts IncrementalBodyEvaluator::total(const SegmentCounts& sums, long matched) const {

@@ -1,16 +1,16 @@
 // The full-body likelihood (full_body.h) kept up to date across poses that differ in a few DOFs,
 // for the factored filter's refinement: a trial re-places and re-rasterizes only the segments those
-// DOFs move (their subtrees) and updates the counts from the footprints that changed, with exactly
-// the counts FullBodyEvaluator::evaluate gives for the same pose.
+// DOFs move (their subtrees) and counts only them, with exactly the counts FullBodyEvaluator::evaluate
+// gives for the same pose.
 //
 // The full-body counts do not depend on the segments' order: matched = silhouette pixels covered by
-// the union of all footprints, outside and area = sums over the footprints. So the state is, per
-// camera, how many footprints cover each pixel, plus every drawn segment's footprints and its own
-// area and silhouette pixels. A trial that moves most of the body is counted through the masked
-// chain instead, and changes the coverage only when accepted.
+// the union of all footprints, outside and area = sums over the footprints. So with the moved
+// segments M and the rest R, matched = matched(R) + what M adds over R, the masked chain of M's
+// footprints with R's as explained. matched(R) follows from the current pose's counts minus the
+// current M's chain over R; it holds while R stands still, which it does for every trial of the same
+// DOFs (the refinement tries each DOF both ways, accepted or not), so it is counted once per set.
 #pragma once
 
-#include <cstdint>
 #include <vector>
 
 #include "tracker/body_model.h"
@@ -22,7 +22,6 @@ namespace mocap {
 
 class IncrementalBodyEvaluator {
  public:
-  // Throws std::invalid_argument if the model draws more segments than a coverage count holds.
   IncrementalBodyEvaluator(const BodyModel& model, const Rig& rig, int points_per_circle);
 
   // Evaluates the whole body at q against `masks` (kept by reference until the next reset) and
@@ -38,8 +37,6 @@ class IncrementalBodyEvaluator {
   const Eigen::VectorXd& pose() const { return q_; }
   // Segments rasterized (in all cameras) so far, by resets and trials.
   long renders() const { return renders_; }
-  // Per camera, how many footprints of the current pose cover each pixel (row-major), for tests.
-  const std::vector<uint8_t>& coverage(std::size_t camera) const { return coverage_[camera]; }
 
  private:
   struct SegmentCounts {
@@ -47,11 +44,13 @@ class IncrementalBodyEvaluator {
     long silhouette = 0;  // silhouette pixels inside the footprints, other segments ignored
   };
 
-  // Rasterizes drawn segment k at its placed pose into slot `slot`; returns its counts.
-  SegmentCounts draw(int k, int slot);
-  // Replaces footprint `from` by `to` in camera c's coverage; with `count`, returns the change in
-  // matched pixels.
-  long moveFootprint(std::size_t c, const Footprint& from, const Footprint& to, bool count);
+  // Rasterizes drawn segment k at its placed pose into slot `slot`.
+  void draw(int k, int slot);
+  // Matched pixels the moved drawn segments add over the rest, with their footprints of the current
+  // pose (`trial` false) or of the trial; each one's own counts go to trial_counts_.
+  long movedOverRest(bool trial);
+  // Makes the rest's explained footprints and matched pixels those of the trial's moved set.
+  void restFor();
   Footprint& footprint(int k, std::size_t c, int slot) {
     return footprints_[(static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c];
   }
@@ -73,16 +72,20 @@ class IncrementalBodyEvaluator {
   std::vector<Footprint> footprints_;         // the same layout
   std::vector<int> slot_;                     // per drawn segment: the current pose's slot
   std::vector<SegmentCounts> segment_counts_, trial_counts_;  // per drawn segment
-  std::vector<std::vector<uint8_t>> coverage_;  // per camera, per pixel
   SegmentCounts sums_, trial_sums_;
   long matched_ = 0, trial_matched_ = 0;
   PixelCounts counts_;
 
   bool pending_ = false;
-  bool applied_ = false;  // the pending trial's footprints are in the coverage
-  std::vector<std::vector<Footprint>> explained_;  // per camera, scratch of the masked chain
   std::vector<char> moved_flag_;  // per segment, scratch of trial()
   std::vector<int> moved_;        // the trial's moved segments, in model order
+  std::vector<int> moved_drawn_;  // their drawn indices
+  // The rest of the last trial's moved set, valid until the next reset: R's footprints (per
+  // camera, then scratch for the moved ones' chain) and matched(R).
+  std::vector<int> rest_of_;  // drawn indices of the moved set it belongs to
+  bool rest_valid_ = false;
+  std::vector<std::vector<Footprint>> rest_explained_;
+  long rest_matched_ = 0;
   long renders_ = 0;
 };
 

@@ -1,7 +1,8 @@
 // The incremental full-body evaluator: after a reset and along a random sequence of trials (one DOF,
 // or several at once like the pattern move), accepted or rejected at random, every count equals
 // FullBodyEvaluator::evaluate's for the same pose, a rejected trial leaves the state as it was, and
-// the coverage always equals that of a fresh reset at the current pose. On the hand and the human.
+// the state reached trial by trial counts as a fresh reset at the current pose. On the hand and the
+// human.
 #include <filesystem>
 #include <random>
 
@@ -59,8 +60,6 @@ void checkRandomTrials(const BodyModel& model, const Rig& rig, const Eigen::Vect
     const std::string what = "trial " + std::to_string(t);
     const PixelCounts before = incremental.counts();
     const Eigen::VectorXd pose_before = incremental.pose();
-    std::vector<std::vector<uint8_t>> coverage_before;
-    for (std::size_t c = 0; c < rig.size(); ++c) coverage_before.push_back(incremental.coverage(c));
     expectSameCounts(incremental.trial(q), full.evaluate(q, masks, 0), what);
     if (rng() % 2) {
       incremental.accept();
@@ -71,16 +70,11 @@ void checkRandomTrials(const BodyModel& model, const Rig& rig, const Eigen::Vect
       incremental.reject();
       EXPECT_EQ(incremental.pose(), pose_before) << what;
       expectSameCounts(incremental.counts(), before, what + " rejected");
-      for (std::size_t c = 0; c < rig.size(); ++c)
-        ASSERT_EQ(incremental.coverage(c), coverage_before[c]) << what << " rejected, camera " << c;
     }
   }
   EXPECT_GT(accepted, trials / 4);
-  // The coverage built trial by trial is the one a fresh evaluation of the final pose builds.
   IncrementalBodyEvaluator fresh(model, rig, LikelihoodParams().points_per_circle);
   expectSameCounts(fresh.reset(incremental.pose(), masks), incremental.counts(), "final");
-  for (std::size_t c = 0; c < rig.size(); ++c)
-    EXPECT_EQ(fresh.coverage(c), incremental.coverage(c)) << "camera " << c;
 }
 
 TEST(IncrementalBodyEvaluator, HandTrialsMatchTheFullEvaluation) {
@@ -108,14 +102,21 @@ TEST(IncrementalBodyEvaluator, ResetClearsThePreviousFrame) {
   testing_support::HandScene scene;
   const Motion motion = generateMotion(scene.model, 2, 4);
   IncrementalBodyEvaluator incremental(scene.model, scene.rig, LikelihoodParams().points_per_circle);
+  FullBodyEvaluator full(scene.model, scene.rig, LikelihoodParams().points_per_circle, 1);
   const auto first = scene.masks(motion[0]), second = scene.masks(motion[1]);
+  // The same fingertip DOF tried in both frames: what the first frame learnt of the rest of the
+  // body must not carry over.
+  const int d = scene.model.segments[scene.model.segmentIndex("index_3")].dofs[0];
+  const auto tipMoved = [&](Eigen::VectorXd q) {
+    q[d] = 0.5 * (scene.model.dofs[d].min + scene.model.dofs[d].max);
+    return q;
+  };
   incremental.reset(motion[0], first);
-  incremental.trial(motion[1]);  // left pending: the reset drops it
+  incremental.trial(tipMoved(motion[0]));  // left pending: the reset drops it
   incremental.reset(motion[1], second);
-  IncrementalBodyEvaluator fresh(scene.model, scene.rig, LikelihoodParams().points_per_circle);
-  expectSameCounts(fresh.reset(motion[1], second), incremental.counts(), "second frame");
-  for (std::size_t c = 0; c < scene.rig.size(); ++c)
-    EXPECT_EQ(fresh.coverage(c), incremental.coverage(c)) << "camera " << c;
+  expectSameCounts(incremental.counts(), full.evaluate(motion[1], second, 0), "second frame");
+  expectSameCounts(incremental.trial(tipMoved(motion[1])),
+                   full.evaluate(tipMoved(motion[1]), second, 0), "trial in the second frame");
 }
 
 TEST(IncrementalBodyEvaluator, RasterizesOnlyTheMovedSubtree) {
