@@ -135,7 +135,18 @@ void IncrementalBodyEvaluator::restFor() {
     for (std::size_t c = 0; c < cameras_; ++c)
       rest_explained_[c].push_back(footprint(static_cast<int>(k), c, slot_[k]));
   }
-  rest_matched_ = matched_ - movedOverRest(false);
+  // matched(R) directly when R is the smaller part (the root or a pattern move moves nearly all).
+  if (2 * moved_drawn_.size() > drawn_.size()) {
+    rest_matched_ = 0;
+    for (std::size_t c = 0; c < cameras_; ++c) {
+      const std::vector<Footprint>& rest = rest_explained_[c];
+      for (std::size_t i = 0; i < rest.size(); ++i)
+        rest_matched_ +=
+            countFootprint((*masks_)[c], rest[i], rest.data(), static_cast<int>(i)).matched;
+    }
+  } else {
+    rest_matched_ = matched_ - movedOverRest(false);
+  }
   rest_of_ = moved_drawn_;
   rest_valid_ = true;
 }
