@@ -190,7 +190,8 @@ class ConfigParser {
 
     if (const YAML::Node tracker = root["tracker"]) {
       onlyKeys(tracker, "tracker",
-               {"method", "evaluations", "threads", "injection", "inject", "seed"});
+               {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
+                "refine", "refine_hold"});
       TrackerSettings& t = config.tracker;
       if (tracker["method"]) {
         t.method = text(tracker["method"], "tracker.method");
@@ -211,6 +212,15 @@ class ConfigParser {
       }
       if (tracker["seed"])
         t.seed = static_cast<uint64_t>(integer(tracker["seed"], "tracker.seed", 0, 2'000'000'000));
+      if (tracker["lookahead"]) {
+        t.lookahead = text(tracker["lookahead"], "tracker.lookahead");
+        if (t.lookahead != "none" && t.lookahead != "root" && t.lookahead != "subtree" &&
+            t.lookahead != "body")
+          fail(tracker["lookahead"], "tracker.lookahead",
+               "expected none, root, subtree or body, got '" + t.lookahead + "'");
+      }
+      if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
+      if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
     }
 
     if (const YAML::Node sync = root["sync"]) {

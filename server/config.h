@@ -30,6 +30,13 @@ struct TrackerSettings {
   std::string inject = "dof";       // what an injected candidate redraws: "dof" (the paper) or
                                     // "segment" (all of a segment's angles; better for people)
   uint64_t seed = 1;                // the filters are deterministic for a seed
+  // factored only (FilterOptions): what a layer ranks its candidates by ("none" is the paper), the
+  // share of the budget spent on the full-body refinement, and whether the refinement also turns
+  // segments with their ball-joint children held. For people, docs/human.md's defaults: body,
+  // 0.4, true (with inject: segment, injection: 0.05, evaluations: 2000).
+  std::string lookahead = "none";
+  double refine = 0;
+  bool refine_hold = false;
 };
 
 struct SyncSettings {

@@ -40,6 +40,9 @@ FilterOptions filterOptions(const TrackerSettings& settings) {
   options.injection_share = settings.injection;
   options.injection = parseInjection(settings.inject);
   options.seed = settings.seed;
+  options.lookahead = parseLookahead(settings.lookahead);
+  options.refine_share = settings.refine;
+  options.refine_hold = settings.refine_hold;
   return options;
 }
 

@@ -50,6 +50,13 @@ struct Candidate {
   Eigen::Isometry3d pose;
 };
 
+// A child segment whose joint is three rotations about distinct coordinate axes (sign * e_axis).
+struct HeldChild {
+  int segment = -1;
+  int axis[3];
+  double sign[3];
+};
+
 // For Lookahead::kBody, per parent particle and layer: the segments it has not placed yet (outside
 // the layer's subtree) at their previous pose, after the placed ones.
 struct RestOfBody {
@@ -112,6 +119,9 @@ class FactoredFilter final : public PoseFilter {
       for (const Layer& layer : layers_)
         if (layer.dof >= 0) refine_dofs_.push_back(layer.dof);
       refine_steps_.resize(refine_dofs_.size());
+      refine_held_.resize(refine_dofs_.size());
+      refine_hold_steps_.resize(refine_dofs_.size());
+      if (options.refine_hold) findHeldChildren();
       refiner_ = std::make_unique<IncrementalBodyEvaluator>(model, rig,
                                                             options.likelihood.points_per_circle);
     }
@@ -467,8 +477,10 @@ class FactoredFilter final : public PoseFilter {
       q = pose;
       return true;
     };
-    for (std::size_t i = 0; i < refine_dofs_.size(); ++i)
+    for (std::size_t i = 0; i < refine_dofs_.size(); ++i) {
       refine_steps_[i] = options_.refine_step * model_.dofs[refine_dofs_[i]].max_speed;
+      refine_hold_steps_[i] = refine_steps_[i];
+    }
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& sweep_start = refine_sweep_start_;
     while (budget > 0) {
@@ -477,19 +489,25 @@ class FactoredFilter final : public PoseFilter {
       for (std::size_t i = 0; i < refine_dofs_.size() && budget > 0; ++i) {
         const int d = refine_dofs_[i];
         const Dof& dof = model_.dofs[d];
-        double& step = refine_steps_[i];  // signed: the direction that last worked
-        bool moved = false;
-        for (const double signed_step : {step, -step}) {
-          if (budget <= 0) break;
-          tried = q;
-          tried[d] = std::clamp(q[d] + signed_step, dof.min, dof.max);
-          if (tried[d] == q[d]) continue;
-          if ((moved = tryPose(tried))) {
-            step = 1.5 * signed_step;
-            break;
+        // One step of DOF d each way (`step` signed: the direction that last worked), optionally
+        // with the segment's ball-joint children held; grows on success, halves on failure.
+        const auto stepBothWays = [&](double& step, const std::vector<HeldChild>* held) {
+          for (const double signed_step : {step, -step}) {
+            if (budget <= 0) break;
+            tried = q;
+            tried[d] = std::clamp(q[d] + signed_step, dof.min, dof.max);
+            if (tried[d] == q[d]) continue;
+            if (held) holdChildren(q, tried, *held);
+            if (tryPose(tried)) {
+              step = 1.5 * signed_step;
+              return true;
+            }
           }
-        }
-        if (!moved) step *= 0.5;
+          step *= 0.5;
+          return false;
+        };
+        if (!stepBothWays(refine_steps_[i], nullptr) && !refine_held_[i].empty())
+          stepBothWays(refine_hold_steps_[i], &refine_held_[i]);
       }
       // Every step has shrunk below what moves a DOF (or every DOF sits at a limit): nothing
       // left to try, so stop rather than loop forever on the unspent budget.
@@ -503,6 +521,70 @@ class FactoredFilter final : public PoseFilter {
     const int spent = refine_evaluations_ - budget;
     estimate.evaluations += spent;
     estimate.segment_renders += refiner_->renders() - renders_before;
+  }
+
+  // For FilterOptions::refine_hold: per refined rotation DOF, the children of its segment whose
+  // joint is three rotations about distinct coordinate axes (so any orientation has its angles).
+  void findHeldChildren() {
+    for (std::size_t i = 0; i < refine_dofs_.size(); ++i) {
+      const Dof& dof = model_.dofs[refine_dofs_[i]];
+      if (dof.type != DofType::kRotation) continue;
+      for (std::size_t c = 0; c < model_.segments.size(); ++c) {
+        const Segment& child = model_.segments[c];
+        if (child.parent != dof.segment || child.dofs.size() != 3) continue;
+        HeldChild held{static_cast<int>(c), {}, {}};
+        bool ball = true;
+        for (int j = 0; j < 3 && ball; ++j) {
+          const Dof& angle = model_.dofs[child.dofs[j]];
+          Eigen::Index axis = 0;
+          const double largest = angle.axis.cwiseAbs().maxCoeff(&axis);
+          ball = angle.type == DofType::kRotation && angle.isFree() && largest == 1.0 &&
+                 angle.axis.cwiseAbs().sum() == 1.0;
+          held.axis[j] = static_cast<int>(axis);
+          held.sign[j] = angle.axis[axis];
+        }
+        ball = ball && held.axis[0] != held.axis[1] && held.axis[1] != held.axis[2] &&
+               held.axis[0] != held.axis[2];
+        if (ball) refine_held_[i].push_back(held);
+      }
+    }
+  }
+
+  // Sets the held children's angles in `tried` (which differs from `q` in their parent's DOFs)
+  // so each child keeps the world orientation it has at q, within its joint limits.
+  void holdChildren(const Eigen::VectorXd& q, Eigen::VectorXd& tried,
+                    const std::vector<HeldChild>& children) {
+    const int s = model_.segments[children[0].segment].parent;
+    const Eigen::Matrix3d turn =
+        localTransform(model_, s, tried).linear().transpose() * localTransform(model_, s, q).linear();
+    for (const HeldChild& held : children) {
+      const Segment& child = model_.segments[held.segment];
+      const Eigen::Matrix3d target = turn * localTransform(model_, held.segment, q).linear();
+      // target = R(e_a0, phi0) R(e_a1, phi1) R(e_a2, phi2): two solutions, the one nearer the
+      // current angles is taken.
+      const Eigen::Vector3d phi = target.eulerAngles(held.axis[0], held.axis[1], held.axis[2]);
+      const Eigen::Vector3d other(phi[0] + M_PI, M_PI - phi[1], phi[2] + M_PI);
+      double best_distance = INFINITY;
+      Eigen::Vector3d best;
+      for (const Eigen::Vector3d& solution : {phi, other}) {
+        Eigen::Vector3d angles;
+        double distance = 0;
+        for (int j = 0; j < 3; ++j) {
+          const double current = q[child.dofs[j]];
+          const double a = held.sign[j] * solution[j];
+          angles[j] = a + 2 * M_PI * std::round((current - a) / (2 * M_PI));
+          distance += std::abs(angles[j] - current);
+        }
+        if (distance < best_distance) {
+          best_distance = distance;
+          best = angles;
+        }
+      }
+      for (int j = 0; j < 3; ++j) {
+        const Dof& angle = model_.dofs[child.dofs[j]];
+        tried[child.dofs[j]] = std::clamp(best[j], angle.min, angle.max);
+      }
+    }
   }
 
   void finishFrame(FrameEstimate& estimate) {
@@ -545,6 +627,8 @@ class FactoredFilter final : public PoseFilter {
   std::unique_ptr<IncrementalBodyEvaluator> refiner_;  // only with a refine share
   std::vector<int> refine_dofs_;                // the free DOFs, in layer order
   std::vector<double> refine_steps_;            // per refined DOF
+  std::vector<std::vector<HeldChild>> refine_held_;  // per refined DOF (FilterOptions::refine_hold)
+  std::vector<double> refine_hold_steps_;       // per refined DOF
   Eigen::VectorXd refine_trial_, refine_sweep_start_;  // scratch of refine()
 };
 

@@ -52,6 +52,12 @@ struct FilterOptions {
   // standing where they were a frame ago; this corrects what that greedy order got wrong.
   double refine_share = 0;
   double refine_step = 0.5;  // the pattern search's first step, in speed limits of each DOF
+  // factored, with a refinement: a rotation DOF whose segment has ball-joint children (three
+  // rotations about distinct axes) that fails both ways is tried once more both ways with those
+  // children's angles re-solved so they keep their world orientation. Turning the pelvis then
+  // leaves the legs and the trunk pointing where they did: a body tracked with its pelvis turned
+  // the wrong way has its limbs twisted to fit, and no single joint angle can undo that.
+  bool refine_hold = false;
   int annealing_layers = 5;       // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;

@@ -34,6 +34,22 @@ TEST(ConfigTest, EmbeddedDefaultIsTheFakeTwoCameraScene) {
   EXPECT_TRUE(config.bearer_token.empty());
 }
 
+TEST(ConfigTest, TrackerOptionsForPeople) {
+  const ServerConfig config = parseConfig(
+      "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
+      "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
+      " refine_hold: true}\n",
+      "test.yaml", ".");
+  EXPECT_EQ(config.tracker.lookahead, "body");
+  EXPECT_EQ(config.tracker.refine, 0.4);
+  EXPECT_TRUE(config.tracker.refine_hold);
+  // Unset, they are the paper's filter.
+  const ServerConfig plain = parseConfig(kDefaultConfigYaml, "default", ".");
+  EXPECT_EQ(plain.tracker.lookahead, "none");
+  EXPECT_EQ(plain.tracker.refine, 0);
+  EXPECT_FALSE(plain.tracker.refine_hold);
+}
+
 TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   EXPECT_THAT(errorOf(cameras + "tracker:\n  evaluations: -5\n"),
@@ -42,6 +58,11 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
               HasSubstr("tracker.method: expected factored, condensation or annealed"));
   EXPECT_THAT(errorOf(cameras + "tracker: {inject: limbs}\n"),
               HasSubstr("tracker.inject: expected dof or segment, got 'limbs'"));
+  EXPECT_THAT(errorOf(cameras + "tracker: {lookahead: ahead}\n"),
+              HasSubstr("tracker.lookahead: expected none, root, subtree or body, got 'ahead'"));
+  EXPECT_THAT(errorOf(cameras + "tracker: {refine: 1.5}\n"),
+              HasSubstr("tracker.refine: must be between 0 and 0.99"));
+  EXPECT_THAT(errorOf(cameras + "tracker: {refine_hold: maybe}\n"), HasSubstr("tracker.refine_hold"));
   EXPECT_THAT(errorOf(cameras + "listen: nowhere\n"), HasSubstr("test.yaml:3: listen:"));
   EXPECT_THAT(errorOf(cameras + "trackr: {}\n"), HasSubstr("trackr: unknown key"));
   EXPECT_THAT(errorOf("cameras:\n  - {driver: nosuch}\n"),

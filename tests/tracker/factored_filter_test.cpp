@@ -1,6 +1,7 @@
 // The factored particle filter: it finds a known static pose from a perturbed start, spends exactly
 // its budget, does not depend on the thread count, recovers a misplaced joint by injection (of
-// one DOF, or of a whole segment's angles), and its full-body refinement corrects the layers.
+// one DOF, or of a whole segment's angles), and its full-body refinement corrects the layers (and,
+// holding a segment's children, a turned pelvis).
 #include <gtest/gtest.h>
 
 #include "tests/tracker/filter_test_support.h"
@@ -157,6 +158,19 @@ TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {
   EXPECT_LT(mcpErrorAfter(0.1, 4), 10.0);
 }
 
+// Two 240x180 cameras 90 degrees apart, 3 m from the vertical axis at `height`, looking at `target`.
+Rig twoCameras(const Eigen::Vector3d& target, double height) {
+  Rig rig;
+  for (int i = 0; i < 2; ++i) {
+    const double azimuth = (30.0 + 90.0 * i) * M_PI / 180;
+    rig.push_back(CameraModel::lookAt(
+        "cam" + std::to_string(i),
+        Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), height), target,
+        Eigen::Vector3d::UnitZ(), 240, 180, 200));
+  }
+  return rig;
+}
+
 // A limb swung far from where the tracker holds it (here: inside the trunk's side, while the truth
 // raises it forward and sideways, beyond many speed limits in two DOFs at once). Redrawing one DOF
 // at a time leaves the other where it was, so no injected candidate reaches the limb's silhouette;
@@ -177,14 +191,7 @@ segments:
     points: [{name: hand, at: [0, 0, -0.6]}]
 )",
                                          "trunk_and_arm.yaml");
-  Rig rig;
-  for (int i = 0; i < 2; ++i) {
-    const double azimuth = (30.0 + 90.0 * i) * M_PI / 180;
-    rig.push_back(
-        CameraModel::lookAt("cam" + std::to_string(i),
-                            Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), 0.3),
-                            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 240, 180, 200));
-  }
+  const Rig rig = twoCameras(Eigen::Vector3d::Zero(), 0.3);
   Eigen::VectorXd truth(2), start(2);
   truth << 100 * M_PI / 180, 60 * M_PI / 180;
   start << 0, 0;
@@ -214,6 +221,86 @@ segments:
   ASSERT_GT(handError(start), 0.5);
   EXPECT_LT(trackedHandError(FilterOptions::Injection::kSegment), 0.03);
   EXPECT_GT(trackedHandError(FilterOptions::Injection::kDof), 0.2);
+}
+
+// A pelvis turned the wrong way with its legs twisted back to point where the true legs point (what
+// a 2-camera track of a walk ends in). Turning the pelvis alone swings the legs off their
+// silhouettes, and no leg angle moves the pelvis; turning it with the legs held does.
+TEST(FactoredFilter, RefinementHoldingTheChildrenUndoesATurnedPelvis) {
+  const BodyModel model = parseBodyModel(R"(
+name: pelvis_and_legs
+segments:
+  - name: pelvis
+    dofs:
+      - {name: yaw, axis: [0, 0, 1], min: -180, max: 180, max_speed: 6}
+    shape: {type: ellipsoid, center: [0, 0, 0], radii: [0.2, 0.1, 0.12]}
+  - name: r_leg
+    parent: pelvis
+    offset: [0.12, 0, -0.08]
+    dofs:
+      - {name: r_flex, axis: [1, 0, 0], min: -90, max: 90, max_speed: 6}
+      - {name: r_abduct, axis: [0, -1, 0], min: -90, max: 90, max_speed: 6}
+      - {name: r_twist, axis: [0, 0, 1], min: -90, max: 90, max_speed: 6}
+    shape: {type: cone, axis: [0, 0, -1], length: 0.8, radius_start: 0.07, radius_end: 0.05}
+    points: [{name: r_foot, at: [0, 0, -0.8]}]
+  - name: l_leg
+    parent: pelvis
+    offset: [-0.12, 0, -0.08]
+    dofs:
+      - {name: l_flex, axis: [1, 0, 0], min: -90, max: 90, max_speed: 6}
+      - {name: l_abduct, axis: [0, 1, 0], min: -90, max: 90, max_speed: 6}
+      - {name: l_twist, axis: [0, 0, -1], min: -90, max: 90, max_speed: 6}
+    shape: {type: cone, axis: [0, 0, -1], length: 0.8, radius_start: 0.07, radius_end: 0.05}
+    points: [{name: l_foot, at: [0, 0, -0.8]}]
+)",
+                                         "pelvis_and_legs.yaml");
+  const Rig rig = twoCameras(Eigen::Vector3d(0, 0, -0.3), -0.2);
+  const double deg = M_PI / 180;
+  Eigen::VectorXd truth(7);
+  truth << 0, 35 * deg, 0, 0, -25 * deg, 0, 0;  // a stride: right leg forward, left back
+  // The start: the pelvis turned 40 degrees, each leg's angles solved so it points as in truth.
+  Eigen::VectorXd start = truth;
+  start[0] = 40 * deg;
+  for (int leg = 0; leg < 2; ++leg) {
+    const Segment& seg = model.segments[1 + leg];
+    const Eigen::Matrix3d local = Eigen::AngleAxisd(-start[0], Eigen::Vector3d::UnitZ()) *
+                                  localTransform(model, 1 + leg, truth).linear();
+    // Of the two angle triples giving that rotation, the one with the smaller angles.
+    Eigen::Vector3d xyz = local.eulerAngles(0, 1, 2);
+    const Eigen::Vector3d other(xyz[0] + M_PI, M_PI - xyz[1], xyz[2] + M_PI);
+    for (int j = 0; j < 3; ++j) xyz[j] = std::remainder(xyz[j], 2 * M_PI);
+    if (xyz.cwiseAbs().sum() > other.unaryExpr([](double a) { return std::remainder(a, 2 * M_PI); })
+                                   .cwiseAbs()
+                                   .sum())
+      xyz = other.unaryExpr([](double a) { return std::remainder(a, 2 * M_PI); });
+    for (int j = 0; j < 3; ++j) {
+      const Dof& dof = model.dofs[seg.dofs[j]];
+      start[seg.dofs[j]] = dof.axis.sum() * xyz[j];
+      ASSERT_GT(start[seg.dofs[j]], dof.min) << dof.name;
+      ASSERT_LT(start[seg.dofs[j]], dof.max) << dof.name;
+    }
+    ASSERT_TRUE(localTransform(model, 1 + leg, start).linear().isApprox(local, 1e-9)) << leg;
+  }
+  SceneRenderer renderer(model, rig);
+  std::vector<SilhouetteMask> masks;
+  for (const cv::Mat& image : renderer.renderSilhouettes(truth)) masks.emplace_back(image);
+
+  // The refinement alone: at this share the layers sample only the interval's centre.
+  auto trackedYaw = [&](bool hold) {
+    WorkerPool pool(1);
+    FilterOptions options;
+    options.evaluations_per_frame = 400;
+    options.refine_share = 0.95;
+    options.injection_share = 0;
+    options.refine_hold = hold;
+    auto filter = makeFilter("factored", model, rig, options, pool);
+    filter->reset(start);
+    FrameEstimate e;
+    for (int f = 0; f < 10; ++f) e = filter->step(masks);
+    return std::abs(e.q[0]) / deg;
+  };
+  EXPECT_LT(trackedYaw(true), 3);
+  EXPECT_GT(trackedYaw(false), 20);
 }
 
 TEST(FactoredFilter, OptionNamesAreParsedAndBadOnesNamed) {

@@ -150,6 +150,7 @@ FilterOptions humanFilterDefaults() {
   options.injection = FilterOptions::Injection::kSegment;
   options.injection_share = 0.05;
   options.refine_share = 0.4;
+  options.refine_hold = true;
   return options;
 }
 
@@ -300,6 +301,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"injection", options.injection_share},
       {"inject", options.injection == FilterOptions::Injection::kSegment ? "segment" : "dof"},
       {"refine", config.method == "factored" ? options.refine_share : 0.0},
+      {"refine_hold", config.method == "factored" && options.refine_share > 0 && options.refine_hold},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
       {"mpjpe_mm", mpjpe / frames},
@@ -327,7 +329,7 @@ int runHumanCommand(int argc, char** argv) {
                   {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
                    "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
                    "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
-                   "reset-every", "refine", "refine-step"},
+                   "reset-every", "refine", "refine-step", "refine-hold"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -354,6 +356,8 @@ int runHumanCommand(int argc, char** argv) {
   if (args.has("lookahead")) config.filter.lookahead = parseLookahead(args.text("lookahead", ""));
   config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
   config.filter.refine_step = args.real("refine-step", config.filter.refine_step, 0.0, 100.0);
+  config.filter.refine_hold =
+      args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
   const std::string estimate = args.text("estimate", "mean");
   if (estimate != "mean" && estimate != "best")
     throw std::invalid_argument("--estimate: expected mean or best, got '" + estimate + "'");
