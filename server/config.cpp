@@ -191,7 +191,7 @@ class ConfigParser {
     if (const YAML::Node tracker = root["tracker"]) {
       onlyKeys(tracker, "tracker",
                {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
-                "refine", "refine_hold"});
+                "refine", "refine_hold", "refine_restarts"});
       TrackerSettings& t = config.tracker;
       if (tracker["method"]) {
         t.method = text(tracker["method"], "tracker.method");
@@ -221,6 +221,8 @@ class ConfigParser {
       }
       if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
       if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
+      if (tracker["refine_restarts"])
+        t.refine_restarts = integer(tracker["refine_restarts"], "tracker.refine_restarts", 0, 100000);
     }
 
     if (const YAML::Node sync = root["sync"]) {

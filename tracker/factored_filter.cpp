@@ -122,6 +122,7 @@ class FactoredFilter final : public PoseFilter {
       refine_held_.resize(refine_dofs_.size());
       refine_hold_steps_.resize(refine_dofs_.size());
       if (options.refine_hold) findHeldChildren();
+      if (options.refine_restarts > 0) findRestartLimbs();
       refiner_ = std::make_unique<IncrementalBodyEvaluator>(model, rig,
                                                             options.likelihood.points_per_circle);
     }
@@ -483,6 +484,7 @@ class FactoredFilter final : public PoseFilter {
     }
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& sweep_start = refine_sweep_start_;
+    if (options_.refine_restarts > 0) restartLimb(q, best, budget);
     while (budget > 0) {
       sweep_start = q;
       const int budget_before_sweep = budget;
@@ -587,6 +589,99 @@ class FactoredFilter final : public PoseFilter {
     }
   }
 
+  // FilterOptions::refine_restarts: restarts one limb (the next in turn each frame) from random
+  // draws of its root segment's angles, searches around the best draw on all the limb's angles, and
+  // keeps the result if it beats the pose; otherwise the evaluator goes back to the pose. Every pose
+  // tried counts against `budget`.
+  void restartLimb(Eigen::VectorXd& q, double& best, int& budget) {
+    if (restart_limbs_.empty()) return;
+    const RestartLimb& limb = restart_limbs_[restart_frame_++ % restart_limbs_.size()];
+    const auto evaluate = [&](const Eigen::VectorXd& pose) {
+      --budget;
+      return logLikelihood(options_.likelihood, refiner_->trial(pose));
+    };
+    Eigen::VectorXd& tried = refine_trial_;
+    Eigen::VectorXd& local = restart_pose_;
+    double local_value = -INFINITY;
+    for (int k = 0; k < options_.refine_restarts && budget > 2; ++k) {
+      tried = q;
+      for (int d : limb.root_dofs)
+        tried[d] = std::uniform_real_distribution<double>(model_.dofs[d].min, model_.dofs[d].max)(rng_);
+      const double value = evaluate(tried);
+      refiner_->reject();
+      if (value > local_value) {
+        local_value = value;
+        local = tried;
+      }
+    }
+    if (local_value == -INFINITY || budget <= 2) return;
+    evaluate(local);
+    refiner_->accept();
+    std::vector<double>& steps = restart_steps_;
+    steps.clear();
+    for (int d : limb.dofs) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
+    // Coordinate steps on the limb's angles, as the refinement takes them, up to 3 per draw; a
+    // sweep that tries nothing (every step too small to move a DOF) ends it.
+    for (int tries = 0, before = -1; tries < 3 * options_.refine_restarts && budget > 1 && tries != before;) {
+      before = tries;
+      for (std::size_t j = 0; j < limb.dofs.size() && budget > 1; ++j) {
+        const int d = limb.dofs[j];
+        bool moved = false;
+        for (const double signed_step : {steps[j], -steps[j]}) {
+          if (budget <= 1) break;
+          tried = local;
+          tried[d] = std::clamp(local[d] + signed_step, model_.dofs[d].min, model_.dofs[d].max);
+          if (tried[d] == local[d]) continue;
+          ++tries;
+          const double value = evaluate(tried);
+          if (value > local_value) {
+            refiner_->accept();
+            local_value = value;
+            local = tried;
+            steps[j] = 1.5 * signed_step;
+            moved = true;
+            break;
+          }
+          refiner_->reject();
+        }
+        if (!moved) steps[j] *= 0.5;
+      }
+    }
+    if (local_value > best) {
+      best = local_value;
+      q = local;
+      return;
+    }
+    evaluate(q);
+    refiner_->accept();
+  }
+
+  struct RestartLimb {
+    std::vector<int> root_dofs;  // the limb root's free rotation DOFs
+    std::vector<int> dofs;       // every free rotation DOF of the limb
+  };
+  // Limbs: segments with at least two free rotations whose parent has several children (the legs,
+  // the arms, the chest and the head of the human; none in the hand, whose fingers bend one way).
+  void findRestartLimbs() {
+    std::vector<int> children(model_.segments.size(), 0);
+    for (const Segment& seg : model_.segments)
+      if (seg.parent >= 0) ++children[seg.parent];
+    for (std::size_t s = 0; s < model_.segments.size(); ++s) {
+      const Segment& seg = model_.segments[s];
+      if (seg.parent < 0 || children[seg.parent] < 2) continue;
+      RestartLimb limb;
+      const auto rotations = [&](int segment, std::vector<int>& out) {
+        for (int d : model_.segments[segment].dofs)
+          if (model_.dofs[d].isFree() && model_.dofs[d].type == DofType::kRotation) out.push_back(d);
+      };
+      rotations(static_cast<int>(s), limb.root_dofs);
+      if (limb.root_dofs.size() < 2) continue;
+      rotations(static_cast<int>(s), limb.dofs);
+      for (int d : descendants_[s]) rotations(d, limb.dofs);
+      restart_limbs_.push_back(limb);
+    }
+  }
+
   void finishFrame(FrameEstimate& estimate) {
     std::vector<const Eigen::VectorXd*> qs;
     std::vector<double> lw;
@@ -629,6 +724,10 @@ class FactoredFilter final : public PoseFilter {
   std::vector<double> refine_steps_;            // per refined DOF
   std::vector<std::vector<HeldChild>> refine_held_;  // per refined DOF (FilterOptions::refine_hold)
   std::vector<double> refine_hold_steps_;       // per refined DOF
+  std::vector<RestartLimb> restart_limbs_;      // FilterOptions::refine_restarts
+  long restart_frame_ = 0;
+  Eigen::VectorXd restart_pose_;                // scratch of restartLimb()
+  std::vector<double> restart_steps_;
   Eigen::VectorXd refine_trial_, refine_sweep_start_;  // scratch of refine()
 };
 

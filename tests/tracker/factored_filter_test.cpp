@@ -223,11 +223,9 @@ segments:
   EXPECT_GT(trackedHandError(FilterOptions::Injection::kDof), 0.2);
 }
 
-// A pelvis turned the wrong way with its legs twisted back to point where the true legs point (what
-// a 2-camera track of a walk ends in). Turning the pelvis alone swings the legs off their
-// silhouettes, and no leg angle moves the pelvis; turning it with the legs held does.
-TEST(FactoredFilter, RefinementHoldingTheChildrenUndoesATurnedPelvis) {
-  const BodyModel model = parseBodyModel(R"(
+// A pelvis turning about the vertical with two legs on ball joints (flex, abduct, twist).
+BodyModel pelvisAndLegs() {
+  return parseBodyModel(R"(
 name: pelvis_and_legs
 segments:
   - name: pelvis
@@ -254,6 +252,30 @@ segments:
     points: [{name: l_foot, at: [0, 0, -0.8]}]
 )",
                                          "pelvis_and_legs.yaml");
+}
+
+// The estimate after 10 frames of the factored filter from `start` with `options` (400
+// evaluations) and its refinement alone: at a share of 0.95 the layers sample only the interval's
+// centre, and nothing is injected.
+Eigen::VectorXd refineAlone(const BodyModel& model, const Rig& rig,
+                            const std::vector<SilhouetteMask>& masks, const Eigen::VectorXd& start,
+                            FilterOptions options) {
+  WorkerPool pool(1);
+  options.evaluations_per_frame = 400;
+  options.refine_share = 0.95;
+  options.injection_share = 0;
+  auto filter = makeFilter("factored", model, rig, options, pool);
+  filter->reset(start);
+  FrameEstimate e;
+  for (int f = 0; f < 10; ++f) e = filter->step(masks);
+  return e.q;
+}
+
+// A pelvis turned the wrong way with its legs twisted back to point where the true legs point (what
+// a 2-camera track of a walk ends in). Turning the pelvis alone swings the legs off their
+// silhouettes, and no leg angle moves the pelvis; turning it with the legs held does.
+TEST(FactoredFilter, RefinementHoldingTheChildrenUndoesATurnedPelvis) {
+  const BodyModel model = pelvisAndLegs();
   const Rig rig = twoCameras(Eigen::Vector3d(0, 0, -0.3), -0.2);
   const double deg = M_PI / 180;
   Eigen::VectorXd truth(7);
@@ -285,22 +307,43 @@ segments:
   std::vector<SilhouetteMask> masks;
   for (const cv::Mat& image : renderer.renderSilhouettes(truth)) masks.emplace_back(image);
 
-  // The refinement alone: at this share the layers sample only the interval's centre.
   auto trackedYaw = [&](bool hold) {
-    WorkerPool pool(1);
     FilterOptions options;
-    options.evaluations_per_frame = 400;
-    options.refine_share = 0.95;
-    options.injection_share = 0;
     options.refine_hold = hold;
-    auto filter = makeFilter("factored", model, rig, options, pool);
-    filter->reset(start);
-    FrameEstimate e;
-    for (int f = 0; f < 10; ++f) e = filter->step(masks);
-    return std::abs(e.q[0]) / deg;
+    return std::abs(refineAlone(model, rig, masks, start, options)[0]) / deg;
   };
   EXPECT_LT(trackedYaw(true), 3);
   EXPECT_GT(trackedYaw(false), 20);
+}
+
+// A leg swung back while the true leg is swung forward: on the way between the two the leg covers
+// no more of the true leg's silhouette, so local steps do not bring it back; restarting the limb
+// from random draws of its angles finds it.
+TEST(FactoredFilter, RefinementRestartsRecoverALimbFarFromItsSilhouette) {
+  const BodyModel model = pelvisAndLegs();
+  const Rig rig = twoCameras(Eigen::Vector3d(0, 0, -0.3), -0.2);
+  const double deg = M_PI / 180;
+  Eigen::VectorXd truth = Eigen::VectorXd::Zero(7), start = truth;
+  truth[1] = 70 * deg;
+  start[1] = -60 * deg;
+  SceneRenderer renderer(model, rig);
+  std::vector<SilhouetteMask> masks;
+  for (const cv::Mat& image : renderer.renderSilhouettes(truth)) masks.emplace_back(image);
+  KinematicsData kinematics(model);
+  const auto footError = [&](const Eigen::VectorXd& q) {
+    forwardKinematics(model, kinematics, q);
+    const Eigen::Vector3d foot = pointPositions(model, kinematics)[0];
+    forwardKinematics(model, kinematics, truth);
+    return (foot - pointPositions(model, kinematics)[0]).norm();
+  };
+  auto trackedFootError = [&](int restarts) {
+    FilterOptions options;
+    options.refine_restarts = restarts;
+    return footError(refineAlone(model, rig, masks, start, options));
+  };
+  ASSERT_GT(footError(start), 1.0);
+  EXPECT_LT(trackedFootError(32), 0.03);
+  EXPECT_GT(trackedFootError(0), 0.3);
 }
 
 TEST(FactoredFilter, OptionNamesAreParsedAndBadOnesNamed) {
