@@ -222,7 +222,7 @@ class ConfigParser {
       if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
       if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
       if (tracker["refine_restarts"])
-        t.refine_restarts = integer(tracker["refine_restarts"], "tracker.refine_restarts", 0, 100000);
+        t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
     }
 
     if (const YAML::Node sync = root["sync"]) {

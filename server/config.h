@@ -32,13 +32,13 @@ struct TrackerSettings {
   uint64_t seed = 1;                // the filters are deterministic for a seed
   // factored only (FilterOptions): what a layer ranks its candidates by ("none" is the paper), the
   // share of the budget spent on the full-body refinement, whether the refinement also turns
-  // segments with their ball-joint children held, and its random draws per frame for restarting a
-  // limb. For people, docs/human.md's defaults: body, 0.4, true, 32 (with inject: segment,
-  // injection: 0.05, evaluations: 2000).
+  // segments with their ball-joint children held, and the share of the refinement spent on
+  // restarting a limb. For people, docs/human.md's defaults: body, 0.4, true, 0.14 (with inject:
+  // segment, injection: 0.05, evaluations: 2000).
   std::string lookahead = "none";
   double refine = 0;
   bool refine_hold = false;
-  int refine_restarts = 0;
+  double refine_restarts = 0;
 };
 
 struct SyncSettings {

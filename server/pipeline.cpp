@@ -43,7 +43,7 @@ FilterOptions filterOptions(const TrackerSettings& settings) {
   options.lookahead = parseLookahead(settings.lookahead);
   options.refine_share = settings.refine;
   options.refine_hold = settings.refine_hold;
-  options.refine_restarts = settings.refine_restarts;
+  options.refine_restart_share = settings.refine_restarts;
   return options;
 }
 

@@ -122,7 +122,10 @@ class FactoredFilter final : public PoseFilter {
       refine_held_.resize(refine_dofs_.size());
       refine_hold_steps_.resize(refine_dofs_.size());
       if (options.refine_hold) findHeldChildren();
-      if (options.refine_restarts > 0) findRestartLimbs();
+      if (options.refine_restart_share > 0) findRestartLimbs();
+      // Each draw is followed by up to 3 poses of local search.
+      restart_draws_ = static_cast<int>(
+          std::lround(options.refine_restart_share * refine_evaluations_ / 4));
       refiner_ = std::make_unique<IncrementalBodyEvaluator>(model, rig,
                                                             options.likelihood.points_per_circle);
     }
@@ -484,7 +487,7 @@ class FactoredFilter final : public PoseFilter {
     }
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& sweep_start = refine_sweep_start_;
-    if (options_.refine_restarts > 0) restartLimb(q, best, budget);
+    if (restart_draws_ > 0) restartLimb(q, best, budget);
     while (budget > 0) {
       sweep_start = q;
       const int budget_before_sweep = budget;
@@ -589,7 +592,7 @@ class FactoredFilter final : public PoseFilter {
     }
   }
 
-  // FilterOptions::refine_restarts: restarts one limb (the next in turn each frame) from random
+  // FilterOptions::refine_restart_share: restarts one limb (the next in turn each frame) from random
   // draws of its root segment's angles, searches around the best draw on all the limb's angles, and
   // keeps the result if it beats the pose; otherwise the evaluator goes back to the pose. Every pose
   // tried counts against `budget`.
@@ -603,7 +606,7 @@ class FactoredFilter final : public PoseFilter {
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& local = restart_pose_;
     double local_value = -INFINITY;
-    for (int k = 0; k < options_.refine_restarts && budget > 2; ++k) {
+    for (int k = 0; k < restart_draws_ && budget > 2; ++k) {
       tried = q;
       for (int d : limb.root_dofs)
         tried[d] = std::uniform_real_distribution<double>(model_.dofs[d].min, model_.dofs[d].max)(rng_);
@@ -622,7 +625,7 @@ class FactoredFilter final : public PoseFilter {
     for (int d : limb.dofs) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
     // Coordinate steps on the limb's angles, as the refinement takes them, up to 3 per draw; a
     // sweep that tries nothing (every step too small to move a DOF) ends it.
-    for (int tries = 0, before = -1; tries < 3 * options_.refine_restarts && budget > 1 && tries != before;) {
+    for (int tries = 0, before = -1; tries < 3 * restart_draws_ && budget > 1 && tries != before;) {
       before = tries;
       for (std::size_t j = 0; j < limb.dofs.size() && budget > 1; ++j) {
         const int d = limb.dofs[j];
@@ -724,7 +727,8 @@ class FactoredFilter final : public PoseFilter {
   std::vector<double> refine_steps_;            // per refined DOF
   std::vector<std::vector<HeldChild>> refine_held_;  // per refined DOF (FilterOptions::refine_hold)
   std::vector<double> refine_hold_steps_;       // per refined DOF
-  std::vector<RestartLimb> restart_limbs_;      // FilterOptions::refine_restarts
+  std::vector<RestartLimb> restart_limbs_;      // FilterOptions::refine_restart_share
+  int restart_draws_ = 0;
   long restart_frame_ = 0;
   Eigen::VectorXd restart_pose_;                // scratch of restartLimb()
   std::vector<double> restart_steps_;

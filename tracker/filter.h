@@ -58,13 +58,13 @@ struct FilterOptions {
   // leaves the legs and the trunk pointing where they did: a body tracked with its pelvis turned
   // the wrong way has its limbs twisted to fit, and no single joint angle can undo that.
   bool refine_hold = false;
-  // factored, with a refinement: before the pattern search, one limb (the next in turn each frame:
-  // legs, arms, chest, head) is restarted from this many random draws of its root segment's angles
-  // over their whole range; the best draw is searched locally on all the limb's angles (up to 3
-  // poses per draw) and kept if it beats the pose. A limb settled on the wrong part of the
-  // silhouette (one leg on the other's) scores better than any pose a few steps away, so no local
-  // step leaves it. 0: off.
-  int refine_restarts = 0;
+  // factored, with a refinement: the share of the refinement's evaluations that, before the
+  // pattern search, restart one limb (the next in turn each frame: legs, arms, chest, head) from
+  // random draws of its root segment's angles over their whole range (a quarter of that share);
+  // the best draw is searched locally on all the limb's angles (up to 3 poses per draw) and kept
+  // if it beats the pose. A limb settled on the wrong part of the silhouette (one leg on the
+  // other's) scores better than any pose a few steps away, so no local step leaves it. 0: off.
+  double refine_restart_share = 0;
   int annealing_layers = 5;       // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;

@@ -38,12 +38,12 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   const ServerConfig config = parseConfig(
       "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
       "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
-      " refine_hold: true, refine_restarts: 32}\n",
+      " refine_hold: true, refine_restarts: 0.14}\n",
       "test.yaml", ".");
   EXPECT_EQ(config.tracker.lookahead, "body");
   EXPECT_EQ(config.tracker.refine, 0.4);
   EXPECT_TRUE(config.tracker.refine_hold);
-  EXPECT_EQ(config.tracker.refine_restarts, 32);
+  EXPECT_EQ(config.tracker.refine_restarts, 0.14);
   // Unset, they are the paper's filter.
   const ServerConfig plain = parseConfig(kDefaultConfigYaml, "default", ".");
   EXPECT_EQ(plain.tracker.lookahead, "none");
@@ -65,8 +65,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
   EXPECT_THAT(errorOf(cameras + "tracker: {refine: 1.5}\n"),
               HasSubstr("tracker.refine: must be between 0 and 0.99"));
   EXPECT_THAT(errorOf(cameras + "tracker: {refine_hold: maybe}\n"), HasSubstr("tracker.refine_hold"));
-  EXPECT_THAT(errorOf(cameras + "tracker: {refine_restarts: -1}\n"),
-              HasSubstr("tracker.refine_restarts: must be between 0 and"));
+  EXPECT_THAT(errorOf(cameras + "tracker: {refine_restarts: 2}\n"),
+              HasSubstr("tracker.refine_restarts: must be between 0 and 1"));
   EXPECT_THAT(errorOf(cameras + "listen: nowhere\n"), HasSubstr("test.yaml:3: listen:"));
   EXPECT_THAT(errorOf(cameras + "trackr: {}\n"), HasSubstr("trackr: unknown key"));
   EXPECT_THAT(errorOf("cameras:\n  - {driver: nosuch}\n"),

@@ -151,7 +151,7 @@ FilterOptions humanFilterDefaults() {
   options.injection_share = 0.05;
   options.refine_share = 0.4;
   options.refine_hold = true;
-  options.refine_restarts = 32;
+  options.refine_restart_share = 0.14;
   return options;
 }
 
@@ -303,8 +303,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"inject", options.injection == FilterOptions::Injection::kSegment ? "segment" : "dof"},
       {"refine", config.method == "factored" ? options.refine_share : 0.0},
       {"refine_hold", config.method == "factored" && options.refine_share > 0 && options.refine_hold},
-      {"refine_restarts",
-       config.method == "factored" && options.refine_share > 0 ? options.refine_restarts : 0},
+      {"refine_restart_share",
+       config.method == "factored" && options.refine_share > 0 ? options.refine_restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
       {"mpjpe_mm", mpjpe / frames},
@@ -359,8 +359,8 @@ int runHumanCommand(int argc, char** argv) {
   if (args.has("lookahead")) config.filter.lookahead = parseLookahead(args.text("lookahead", ""));
   config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
   config.filter.refine_step = args.real("refine-step", config.filter.refine_step, 0.0, 100.0);
-  config.filter.refine_restarts = static_cast<int>(
-      args.integer("refine-restarts", config.filter.refine_restarts, 0, 100000));
+  config.filter.refine_restart_share =
+      args.real("refine-restarts", config.filter.refine_restart_share, 0.0, 1.0);
   config.filter.refine_hold =
       args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
   const std::string estimate = args.text("estimate", "mean");
