@@ -18,7 +18,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 
-METHOD_STYLE = {"factored": "o-", "factored (no hold)": "o--", "factored (layers only)": "o:",
+METHOD_STYLE = {"factored": "o-", "factored (no restarts)": "o--", "factored (no hold)": "o-.",
+                "factored (layers only)": "o:",
                 "condensation": "s--",
                 "annealed": "^:"}
 
