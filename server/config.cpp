@@ -163,7 +163,7 @@ class ConfigParser {
     onlyKeys(
         root, "",
         {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "recording_directory",
-         "background_directory", "silhouettes", "tls", "auth", "log_level"});
+         "background_directory", "silhouettes", "tls", "auth", "log_level", "scene_motion"});
 
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
@@ -184,8 +184,20 @@ class ConfigParser {
       const std::string model = text(root["body_model"], "body_model");
       config.body_model =
           model.rfind("builtin:", 0) == 0 ? model : existingFile(root["body_model"], "body_model");
-      if (model.rfind("builtin:", 0) == 0 && model != "builtin:hand")
-        fail(root["body_model"], "body_model", "unknown built-in model (known: builtin:hand)");
+      if (model.rfind("builtin:", 0) == 0 && model != "builtin:hand" && model != "builtin:human")
+        fail(root["body_model"], "body_model",
+             "unknown built-in model (known: builtin:hand, builtin:human)");
+    }
+    if (root["scene_motion"]) {
+      config.scene_motion = existingFile(root["scene_motion"], "scene_motion");
+      for (const CameraConfig& camera : config.cameras)
+        if (camera.driver != "fake")
+          fail(root["scene_motion"], "scene_motion",
+               "only the fake scene plays a motion (cameras[" + std::to_string(camera.index) +
+                   "] is " + camera.driver + ")");
+      if (config.body_model == "builtin:hand")
+        fail(root["body_model"], "body_model",
+             "a scene_motion (BVH) drives a human body, not builtin:hand");
     }
 
     if (const YAML::Node tracker = root["tracker"]) {

@@ -51,8 +51,12 @@ struct ServerConfig {
   std::vector<CameraConfig> cameras;
   // OpenCV FileStorage rig file; empty: the rig the cameras' driver describes (fake scene).
   std::string calibration_file;
-  // Body model YAML, or "builtin:hand"; empty: the model the cameras' driver describes.
+  // Body model YAML, "builtin:hand" or "builtin:human"; empty: the model the cameras' driver
+  // describes (the fake scene's hand, or the human with a scene motion).
   std::string body_model;
+  // Fake scene only: a BVH file (CMU's skeleton) the scene plays, retargeted at the cameras' rate
+  // onto the body model fitted to the recorded subject; the tracker tracks that fitted body.
+  std::string scene_motion;
   TrackerSettings tracker;
   SyncSettings sync;
   std::string listen = "127.0.0.1:50051";

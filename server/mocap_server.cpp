@@ -10,7 +10,9 @@
 
 #include "drivers/fake/fake_driver.h"
 #include "server/log.h"
-#include "tracker/experiments/hand_experiment.h"
+#include "tracker/builtin_models.h"
+#include "tracker/bvh.h"
+#include "tracker/retarget.h"
 
 namespace mocap {
 namespace {
@@ -31,7 +33,7 @@ bool isFakeScene(const CameraConfig& camera) { return camera.driver == "fake"; }
 // The fake driver as the daemon configures it: the scene built from the camera list, and the
 // configured model and calibration if any (the scene's defaults otherwise).
 FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel* model,
-                                    const Rig* rig) {
+                                    const Rig* rig, std::shared_ptr<const Motion> motion) {
   FakeDriverOptions options;
   const CameraConfig& first = config.cameras.front();
   options.scene.cameras = static_cast<int>(config.cameras.size());
@@ -42,6 +44,7 @@ FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel*
   options.scene.seed = config.tracker.seed;
   if (model) options.scene.model = std::make_shared<const BodyModel>(*model);
   if (rig) options.scene.rig = *rig;
+  options.scene.motion = std::move(motion);
   return options;
 }
 
@@ -51,15 +54,32 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
   std::unique_ptr<MocapServer> server(new MocapServer(config));
   PipelineInputs inputs;
   try {
-    if (!config.body_model.empty()) {
-      server->model_ = std::make_unique<BodyModel>(config.body_model == "builtin:hand"
-                                                       ? builtinHandModel()
-                                                       : loadBodyModel(config.body_model));
+    if (config.body_model == "builtin:hand") {
+      server->model_ = std::make_unique<BodyModel>(builtinHandModel());
+    } else if (config.body_model == "builtin:human") {
+      server->model_ = std::make_unique<BodyModel>(builtinHumanModel());
+    } else if (!config.body_model.empty()) {
+      server->model_ = std::make_unique<BodyModel>(loadBodyModel(config.body_model));
     }
     if (!config.calibration_file.empty())
       server->rig_ = std::make_unique<Rig>(loadRig(config.calibration_file));
   } catch (const std::exception& e) {
     return Status::Error(e.what());
+  }
+  std::shared_ptr<const Motion> scene_motion;
+  if (!config.scene_motion.empty()) {
+    // The body fitted to the recorded subject, so the scene shows and the tracker tracks that
+    // person's proportions (docs/human.md).
+    try {
+      const Bvh bvh = loadBvh(config.scene_motion);
+      auto fitted = std::make_unique<BodyModel>(
+          fitModelToBvh(server->model_ ? *server->model_ : builtinHumanModel(), bvh.skeleton));
+      scene_motion = std::make_shared<const Motion>(
+          retargetBvh(*fitted, bvh.skeleton, bvh.motion, config.cameras.front().fps).motion);
+      server->model_ = std::move(fitted);
+    } catch (const std::exception& e) {
+      return Status::Error(config.source + ": scene_motion: " + e.what());
+    }
   }
 
   if (config.replay()) {
@@ -97,7 +117,8 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
     if (any_fake && !all_fake)
       return Status::Error(config.source + ": cameras: the fake scene cannot be mixed with real cameras");
     if (any_fake) {
-      FakeDriver driver(fakeDriverOptions(config, server->model_.get(), server->rig_.get()));
+      FakeDriver driver(
+          fakeDriverOptions(config, server->model_.get(), server->rig_.get(), scene_motion));
       Expected<std::shared_ptr<FakeScene>> scene = driver.scene();
       if (!scene.ok()) return Status::Error("fake scene: " + scene.error());
       std::shared_ptr<FakeScene> shared = scene.value();

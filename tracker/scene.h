@@ -9,6 +9,7 @@
 #include "tracker/body_model.h"
 #include "tracker/camera.h"
 #include "tracker/kinematics.h"
+#include "tracker/motion.h"
 #include "tracker/raster.h"
 
 namespace mocap {
@@ -36,6 +37,12 @@ class SceneRenderer {
   std::vector<RowSpan> spans_;
   std::vector<std::pair<int, int>> hidden_;  // (camera, segment)
 };
+
+// `cameras` cameras on a circle around the volume the motion covers, 1.6 m high, looking at the
+// middle of the body's path, the first two 90 degrees apart as a lab would place a pair; the focal
+// length keeps the whole path in view.
+Rig labRig(int cameras, const BodyModel& model, const Motion& motion, int width = 780,
+           int height = 580);
 
 // Sets every pixel of `footprint` in `image` (CV_8UC1) to `value`.
 void fillFootprint(cv::Mat& image, const Footprint& footprint, uint8_t value);

@@ -13,7 +13,6 @@
 namespace mocap {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kNoiseOffsets = 1 << 16;
 
 uint64_t splitmix64(uint64_t x) {
@@ -48,25 +47,9 @@ double modelExtent(const BodyModel& model) {
 
 }  // namespace
 
-Rig labRig(int cameras, int width, int height) {
-  const Eigen::Vector3d target(0.0, 0.0, 1.0);
-  const double distance = 4.0;
-  const double eye_height = 1.6;
-  // About 2.3 m of the volume fills 90 % of the image height at 4 m.
-  const double focal = 900.0 * height / 580.0;
-  Rig rig;
-  for (int i = 0; i < cameras; ++i) {
-    // The subject faces +Y; the cameras stand in front, 60 degrees apart, centred on +Y.
-    const double azimuth = (i - (cameras - 1) / 2.0) * 60.0 * kPi / 180.0;
-    const Eigen::Vector3d eye(distance * std::sin(azimuth), distance * std::cos(azimuth), eye_height);
-    rig.push_back(CameraModel::lookAt("cam" + std::to_string(i), eye, target, Eigen::Vector3d::UnitZ(),
-                                      width, height, focal));
-  }
-  return rig;
-}
-
-Rig defaultFakeRig(const BodyModel& model, int cameras, int width, int height) {
-  return modelExtent(model) > 0.5 ? labRig(cameras, width, height) : handRig(cameras, width, height);
+Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width, int height) {
+  return modelExtent(model) > 0.5 ? labRig(cameras, model, motion, width, height)
+                                  : handRig(cameras, width, height);
 }
 
 FakeRenderScratch::FakeRenderScratch(const BodyModel& model, int max_rows)
@@ -86,24 +69,24 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
     scene->model_ = o.model ? o.model : std::make_shared<const BodyModel>(builtinHandModel());
     scene->motion_ = o.motion ? o.motion
                               : std::make_shared<const Motion>(generateMotion(*scene->model_, o.generated_frames, o.seed));
+    if (scene->motion_->empty()) return Status::Error("fake scene: the motion has no frames");
+    const Eigen::Index dofs = static_cast<Eigen::Index>(scene->model_->dofs.size());
+    for (std::size_t f = 0; f < scene->motion_->size(); ++f) {
+      if ((*scene->motion_)[f].size() != dofs) {
+        return Status::Error("fake scene: motion frame " + std::to_string(f) + " has " +
+                             std::to_string((*scene->motion_)[f].size()) + " values, the model " +
+                             scene->model_->name + " has " + std::to_string(dofs) + " DOFs");
+      }
+    }
     if (o.rig.empty()) {
       if (o.cameras <= 0) return Status::Error("fake scene: cameras must be positive");
-      o.rig = defaultFakeRig(*scene->model_, o.cameras, o.width, o.height);
+      o.rig = defaultFakeRig(*scene->model_, *scene->motion_, o.cameras, o.width, o.height);
     }
   } catch (const std::exception& e) {
     return Status::Error(std::string("fake scene: ") + e.what());
   }
   scene->rig_ = o.rig;
   o.cameras = static_cast<int>(scene->rig_.size());
-  if (scene->motion_->empty()) return Status::Error("fake scene: the motion has no frames");
-  const Eigen::Index dofs = static_cast<Eigen::Index>(scene->model_->dofs.size());
-  for (std::size_t f = 0; f < scene->motion_->size(); ++f) {
-    if ((*scene->motion_)[f].size() != dofs) {
-      return Status::Error("fake scene: motion frame " + std::to_string(f) + " has " +
-                           std::to_string((*scene->motion_)[f].size()) + " values, the model " +
-                           scene->model_->name + " has " + std::to_string(dofs) + " DOFs");
-    }
-  }
   scene->period_ns_ = static_cast<int64_t>(std::llround(1e9 / o.fps));
 
   std::size_t largest_image = 0;

@@ -49,7 +49,7 @@ struct FakeSceneOptions {
   std::shared_ptr<const BodyModel> model;
   std::shared_ptr<const Motion> motion;
   int generated_frames = 500;
-  // Empty: defaultFakeRig(model, cameras, width, height).
+  // Empty: defaultFakeRig(model, motion, cameras, width, height).
   Rig rig;
   int cameras = 2;
   int width = 780;
@@ -64,12 +64,10 @@ struct FakeSceneOptions {
   FakeFaults faults;
 };
 
-// A rig for a person-sized volume as a lab would place it: `cameras` cameras 4 m from a point
-// 1 m above the floor, 1.6 m high, tilted down, spread 60 degrees apart around the volume.
-Rig labRig(int cameras, int width, int height);
-// The rig used when none is given: the lab rig for a body taller than half a metre, otherwise one
-// framed for a hand-sized model (the hand experiment's rig), so the default scene fills the image.
-Rig defaultFakeRig(const BodyModel& model, int cameras, int width, int height);
+// The rig used when none is given: for a body taller than half a metre the lab rig framed on the
+// motion's path (labRig in tracker/scene.h), otherwise one framed for a hand-sized model (the hand
+// experiment's rig), so the default scene fills the image.
+Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width, int height);
 
 struct GroundTruth {
   uint64_t sequence = 0;

@@ -81,8 +81,8 @@ TEST(ExampleConfigsTest, EveryShippedExampleIsCoveredHere) {
     const std::string name = entry.path().filename().string();
     if (name.rfind("example-rig-", 0) != 0) found.insert(name);
   }
-  EXPECT_EQ(found, (std::set<std::string>{"fake.yaml", "gige.yaml", "libcamera.yaml",
-                                          "replay.yaml", "v4l2.yaml"}));
+  EXPECT_EQ(found, (std::set<std::string>{"fake.yaml", "fake-walk.yaml", "gige.yaml",
+                                          "libcamera.yaml", "replay.yaml", "v4l2.yaml"}));
 }
 
 TEST(ExampleConfigsTest, FakeIsTheEmbeddedDefaultSpeltOut) {
@@ -102,6 +102,22 @@ TEST(ExampleConfigsTest, FakeIsTheEmbeddedDefaultSpeltOut) {
   EXPECT_EQ(config.tracker.evaluations, embedded.tracker.evaluations);
   EXPECT_EQ(config.tracker.threads, embedded.tracker.threads);
   EXPECT_EQ(config.listen, embedded.listen);
+}
+
+TEST(ExampleConfigsTest, FakeWalkPlaysTheSharedWalkOnTheHumanBody) {
+  const ServerConfig config = loadConfigFile((kConfigDir / "fake-walk.yaml").string());
+  EXPECT_EQ(config.cameras.size(), 2u);
+  EXPECT_EQ(config.body_model, "builtin:human");
+  EXPECT_TRUE(std::filesystem::equivalent(
+      config.scene_motion,
+      std::filesystem::path(MOCAP_SHARED_DIR) / "data/motion/cmu_131_01_walk.bvh"));
+  EXPECT_EQ(config.tracker.evaluations, 2000);
+  EXPECT_EQ(config.tracker.lookahead, "body");
+  // A motion is for the fake scene only.
+  const std::filesystem::path path = kConfigDir / "fake-walk.yaml";
+  EXPECT_THAT(errorOf(path, replaceOnce(readFile(path), "driver: fake, device: \"scene:1\"",
+                                        "driver: v4l2, device: /dev/video2")),
+              HasSubstr("scene_motion: only the fake scene plays a motion (cameras[1] is v4l2)"));
 }
 
 TEST(ExampleConfigsTest, SystemDefaultRecordsUnderTheStateDirectory) {

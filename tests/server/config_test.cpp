@@ -86,6 +86,13 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
               HasSubstr("test.yaml:3: background_directory: not an existing directory"));
   EXPECT_THAT(errorOf(cameras + "silhouettes: guessed\n"),
               HasSubstr("test.yaml:3: silhouettes: expected extracted or ground_truth"));
+  EXPECT_THAT(errorOf(cameras + "body_model: builtin:horse\n"),
+              HasSubstr("body_model: unknown built-in model (known: builtin:hand, builtin:human)"));
+  EXPECT_THAT(errorOf(cameras + "scene_motion: /no/such/walk.bvh\n"),
+              HasSubstr("test.yaml:3: scene_motion: no such file: /no/such/walk.bvh"));
+  const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
+  EXPECT_THAT(errorOf(cameras + "body_model: builtin:hand\nscene_motion: " + walk + "\n"),
+              HasSubstr("body_model: a scene_motion (BVH) drives a human body, not builtin:hand"));
 }
 
 TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {

@@ -22,34 +22,6 @@
 
 namespace mocap {
 
-Rig labRig(int cameras, const BodyModel& model, const Motion& motion, int width, int height) {
-  // The horizontal extent of the pelvis path.
-  KinematicsData kin(model);
-  const int pelvis = std::max(0, model.pointIndex("pelvis"));
-  Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
-  for (const Eigen::VectorXd& q : motion) {
-    forwardKinematics(model, kin, q);
-    const Eigen::Vector3d p = kin.world[model.points[pelvis].segment] * model.points[pelvis].local;
-    lo = lo.cwiseMin(p.head<2>());
-    hi = hi.cwiseMax(p.head<2>());
-  }
-  const Eigen::Vector2d centre = 0.5 * (lo + hi);
-  const double reach = 0.5 * (hi - lo).norm() + 0.7;  // path half-length plus arms and margin
-  const double distance = std::max(4.0, reach + 3.0);
-  const double focal = std::min(0.5 * width * distance / reach, 0.5 * height * distance / 1.2);
-  const Eigen::Vector3d target(centre.x(), centre.y(), 0.9);
-  Rig rig;
-  for (int i = 0; i < cameras; ++i) {
-    const double azimuth =
-        (45.0 + (cameras <= 4 ? 90.0 * i : 360.0 * i / cameras)) * M_PI / 180.0;
-    const Eigen::Vector3d eye(centre.x() + distance * std::cos(azimuth),
-                              centre.y() + distance * std::sin(azimuth), 1.6);
-    rig.push_back(CameraModel::lookAt("cam" + std::to_string(i), eye, target,
-                                      Eigen::Vector3d::UnitZ(), width, height, focal));
-  }
-  return rig;
-}
-
 void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera) {
   const cv::Rect box = cv::boundingRect(mask);
   if (box.area() == 0) return;

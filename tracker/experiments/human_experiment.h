@@ -16,14 +16,9 @@
 #include "tracker/camera.h"
 #include "tracker/filter.h"
 #include "tracker/motion.h"
+#include "tracker/scene.h"
 
 namespace mocap {
-
-// `cameras` cameras on a circle around the volume the motion covers, 1.6 m high, looking at the
-// middle of the body's path, the first two 90 degrees apart as a lab would place a pair; the focal
-// length keeps the whole path in view.
-Rig labRig(int cameras, const BodyModel& model, const Motion& motion, int width = 780,
-           int height = 580);
 
 // Silhouette defects of real extraction, deterministic in (seed, frame, camera): ragged edges,
 // holes, and a shadow blob on the floor beside the feet. (A missed limb is rendered by hiding a

@@ -9,6 +9,7 @@
 
 #include "drivers/builtin_drivers.h"
 #include "drivers/fake/fake_driver.h"
+#include "tracker/builtin_models.h"
 #include "tests/drivers/frame_collector.h"
 
 namespace mocap {
@@ -256,13 +257,37 @@ TEST(FakeDriver, BadConfigsAreNamed) {
 }
 
 TEST(FakeDriver, DefaultRigsFitTheModel) {
-  const Rig lab = labRig(2, 780, 580);
+  // A person walking 3 m along x: the lab rig stands around the middle of the path, and the pelvis
+  // stays in view of both cameras all along it.
+  const BodyModel human = builtinHumanModel();
+  Motion walk;
+  for (int f = 0; f <= 30; ++f) {
+    Eigen::VectorXd q = human.neutralPose();
+    q[human.dofIndex("root_tx")] += 0.1 * f;
+    walk.push_back(q);
+  }
+  const Rig lab = defaultFakeRig(human, walk, 2, 780, 580);
   ASSERT_EQ(lab.size(), 2u);
-  const Eigen::Vector3d a = lab[0].center(), b = lab[1].center();
-  const Eigen::Vector3d target(0, 0, 1);
-  EXPECT_NEAR((a - target).head<2>().norm(), 4.0, 1e-9);
-  EXPECT_NEAR(std::acos((a - target).head<2>().normalized().dot((b - target).head<2>().normalized())) * 180 / M_PI,
-              60.0, 1e-6);
+  KinematicsData kin(human);
+  const int pelvis = human.pointIndex("pelvis");
+  Eigen::Vector2d middle = Eigen::Vector2d::Zero();
+  for (const Eigen::VectorXd& q : walk) {
+    forwardKinematics(human, kin, q);
+    const Eigen::Vector3d p = kin.world[human.points[pelvis].segment] * human.points[pelvis].local;
+    middle += p.head<2>() / static_cast<double>(walk.size());
+    for (const CameraModel& camera : lab) {
+      Eigen::Vector2d pixel;
+      ASSERT_TRUE(camera.project(p, pixel));
+      EXPECT_GT(pixel.x(), 0);
+      EXPECT_LT(pixel.x(), 780);
+    }
+  }
+  EXPECT_GE((lab[0].center().head<2>() - middle).norm(), 4.0);
+  // A hand-sized model gets the hand experiment's rig.
+  const BodyModel hand = builtinHandModel();
+  const Rig close = defaultFakeRig(hand, generateMotion(hand, 2, 1), 3, 780, 580);
+  EXPECT_EQ(close.size(), 3u);
+  EXPECT_LT(close[0].center().norm(), 1.0);
 }
 
 TEST(FakeDriver, IsRegisteredAsFake) {
