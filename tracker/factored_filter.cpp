@@ -469,18 +469,6 @@ class FactoredFilter final : public PoseFilter {
     const long renders_before = refiner_->renders();
     double best = logLikelihood(options_.likelihood, refiner_->reset(q, masks));
     int budget = refine_evaluations_ - 1;
-    const auto tryPose = [&](const Eigen::VectorXd& pose) {
-      --budget;
-      const double value = logLikelihood(options_.likelihood, refiner_->trial(pose));
-      if (value <= best) {
-        refiner_->reject();
-        return false;
-      }
-      refiner_->accept();
-      best = value;
-      q = pose;
-      return true;
-    };
     for (std::size_t i = 0; i < refine_dofs_.size(); ++i) {
       refine_steps_[i] = options_.refine_step * model_.dofs[refine_dofs_[i]].max_speed;
       refine_hold_steps_[i] = refine_steps_[i];
@@ -493,26 +481,8 @@ class FactoredFilter final : public PoseFilter {
       const int budget_before_sweep = budget;
       for (std::size_t i = 0; i < refine_dofs_.size() && budget > 0; ++i) {
         const int d = refine_dofs_[i];
-        const Dof& dof = model_.dofs[d];
-        // One step of DOF d each way (`step` signed: the direction that last worked), optionally
-        // with the segment's ball-joint children held; grows on success, halves on failure.
-        const auto stepBothWays = [&](double& step, const std::vector<HeldChild>* held) {
-          for (const double signed_step : {step, -step}) {
-            if (budget <= 0) break;
-            tried = q;
-            tried[d] = std::clamp(q[d] + signed_step, dof.min, dof.max);
-            if (tried[d] == q[d]) continue;
-            if (held) holdChildren(q, tried, *held);
-            if (tryPose(tried)) {
-              step = 1.5 * signed_step;
-              return true;
-            }
-          }
-          step *= 0.5;
-          return false;
-        };
-        if (!stepBothWays(refine_steps_[i], nullptr) && !refine_held_[i].empty())
-          stepBothWays(refine_hold_steps_[i], &refine_held_[i]);
+        if (!stepDof(d, refine_steps_[i], nullptr, q, best, budget, 0) && !refine_held_[i].empty())
+          stepDof(d, refine_hold_steps_[i], &refine_held_[i], q, best, budget, 0);
       }
       // Every step has shrunk below what moves a DOF (or every DOF sits at a limit): nothing
       // left to try, so stop rather than loop forever on the unspent budget.
@@ -520,12 +490,49 @@ class FactoredFilter final : public PoseFilter {
       if (budget > 0 && q != sweep_start) {
         tried = 2 * q - sweep_start;
         clampToLimits(model_, tried);
-        tryPose(tried);
+        tryPose(tried, q, best, budget);
       }
     }
     const int spent = refine_evaluations_ - budget;
     estimate.evaluations += spent;
     estimate.segment_renders += refiner_->renders() - renders_before;
+  }
+
+  // Scores `pose` as one evaluation of `budget`. If it beats `value`, it becomes the evaluator's
+  // current pose, `at` and `value`; otherwise the evaluator goes back to `at`.
+  bool tryPose(const Eigen::VectorXd& pose, Eigen::VectorXd& at, double& value, int& budget) {
+    --budget;
+    const double score = logLikelihood(options_.likelihood, refiner_->trial(pose));
+    if (score <= value) {
+      refiner_->reject();
+      return false;
+    }
+    refiner_->accept();
+    value = score;
+    at = pose;
+    return true;
+  }
+
+  // One step of DOF d from `at` each way while the budget is above `reserve`, the signed `step`
+  // first (the direction that last worked), optionally with the segment's ball-joint children
+  // held: a step that improves is taken and grows by half; if neither does, the step halves.
+  bool stepDof(int d, double& step, const std::vector<HeldChild>* held, Eigen::VectorXd& at,
+               double& value, int& budget, int reserve) {
+    const Dof& dof = model_.dofs[d];
+    Eigen::VectorXd& tried = refine_trial_;
+    for (const double signed_step : {step, -step}) {
+      if (budget <= reserve) break;
+      tried = at;
+      tried[d] = std::clamp(at[d] + signed_step, dof.min, dof.max);
+      if (tried[d] == at[d]) continue;
+      if (held) holdChildren(at, tried, *held);
+      if (tryPose(tried, at, value, budget)) {
+        step = 1.5 * signed_step;
+        return true;
+      }
+    }
+    step *= 0.5;
+    return false;
   }
 
   // For FilterOptions::refine_hold: per refined rotation DOF, the children of its segment whose
@@ -623,32 +630,15 @@ class FactoredFilter final : public PoseFilter {
     std::vector<double>& steps = restart_steps_;
     steps.clear();
     for (int d : limb.dofs) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
-    // Coordinate steps on the limb's angles, as the refinement takes them, up to 3 per draw; a
-    // sweep that tries nothing (every step too small to move a DOF) ends it.
-    for (int tries = 0, before = -1; tries < 3 * restart_draws_ && budget > 1 && tries != before;) {
-      before = tries;
-      for (std::size_t j = 0; j < limb.dofs.size() && budget > 1; ++j) {
-        const int d = limb.dofs[j];
-        bool moved = false;
-        for (const double signed_step : {steps[j], -steps[j]}) {
-          if (budget <= 1) break;
-          tried = local;
-          tried[d] = std::clamp(local[d] + signed_step, model_.dofs[d].min, model_.dofs[d].max);
-          if (tried[d] == local[d]) continue;
-          ++tries;
-          const double value = evaluate(tried);
-          if (value > local_value) {
-            refiner_->accept();
-            local_value = value;
-            local = tried;
-            steps[j] = 1.5 * signed_step;
-            moved = true;
-            break;
-          }
-          refiner_->reject();
-        }
-        if (!moved) steps[j] *= 0.5;
-      }
+    // Coordinate steps on the limb's angles, as the refinement takes them, up to 3 poses per draw,
+    // one evaluation kept back to restore the pose; a sweep that tries nothing (every step too
+    // small to move a DOF) ends it.
+    const int search_start = budget;
+    for (int swept_from = -1;
+         search_start - budget < 3 * restart_draws_ && budget > 1 && budget != swept_from;) {
+      swept_from = budget;
+      for (std::size_t j = 0; j < limb.dofs.size() && budget > 1; ++j)
+        stepDof(limb.dofs[j], steps[j], nullptr, local, local_value, budget, 1);
     }
     if (local_value > best) {
       best = local_value;
@@ -679,7 +669,7 @@ class FactoredFilter final : public PoseFilter {
       };
       rotations(static_cast<int>(s), limb.root_dofs);
       if (limb.root_dofs.size() < 2) continue;
-      rotations(static_cast<int>(s), limb.dofs);
+      limb.dofs = limb.root_dofs;
       for (int d : descendants_[s]) rotations(d, limb.dofs);
       restart_limbs_.push_back(limb);
     }

@@ -3,6 +3,8 @@
 #include "server/config.h"
 
 #include <filesystem>
+#include <string>
+#include <utility>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -54,45 +56,45 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
 
 TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
-  EXPECT_THAT(errorOf(cameras + "tracker:\n  evaluations: -5\n"),
-              HasSubstr("test.yaml:4: tracker.evaluations: must be between 1 and"));
-  EXPECT_THAT(errorOf(cameras + "tracker: {method: magic}\n"),
-              HasSubstr("tracker.method: expected factored, condensation or annealed"));
-  EXPECT_THAT(errorOf(cameras + "tracker: {inject: limbs}\n"),
-              HasSubstr("tracker.inject: expected dof or segment, got 'limbs'"));
-  EXPECT_THAT(errorOf(cameras + "tracker: {lookahead: ahead}\n"),
-              HasSubstr("tracker.lookahead: expected none, root, subtree or body, got 'ahead'"));
-  EXPECT_THAT(errorOf(cameras + "tracker: {refine: 1.5}\n"),
-              HasSubstr("tracker.refine: must be between 0 and 0.99"));
-  EXPECT_THAT(errorOf(cameras + "tracker: {refine_hold: maybe}\n"), HasSubstr("tracker.refine_hold"));
-  EXPECT_THAT(errorOf(cameras + "tracker: {refine_restarts: 2}\n"),
-              HasSubstr("tracker.refine_restarts: must be between 0 and 1"));
-  EXPECT_THAT(errorOf(cameras + "listen: nowhere\n"), HasSubstr("test.yaml:3: listen:"));
-  EXPECT_THAT(errorOf(cameras + "trackr: {}\n"), HasSubstr("trackr: unknown key"));
-  EXPECT_THAT(errorOf("cameras:\n  - {driver: nosuch}\n"),
-              HasSubstr("cameras[0].driver: no driver 'nosuch'"));
-  EXPECT_THAT(errorOf("cameras: []\n"), HasSubstr("cameras: expected a non-empty list"));
-  EXPECT_THAT(errorOf(cameras + "  - {driver: fake, width: 780, height: 580, fps: 30}\n"),
-              HasSubstr("cameras[1].fps: every camera of the rig must run at the same rate"));
-  EXPECT_THAT(errorOf(cameras + "calibration: /no/such/rig.yaml\n"),
-              HasSubstr("calibration: no such file"));
-  EXPECT_THAT(errorOf(cameras + "auth: {token: short}\n"), HasSubstr("at least 16 characters"));
-  EXPECT_THAT(errorOf(cameras + "recording_directory: /no/such/dir\n"),
-              HasSubstr("recording_directory: not an existing directory"));
-  EXPECT_THAT(errorOf(cameras + "tls: {cert: /no/cert.pem}\n"),
-              HasSubstr("tls: needs both 'cert' and 'key'"));
-  EXPECT_THAT(errorOf("cameras: [\n"), HasSubstr("test.yaml:"));
-  EXPECT_THAT(errorOf(cameras + "background_directory: /no/such/dir\n"),
-              HasSubstr("test.yaml:3: background_directory: not an existing directory"));
-  EXPECT_THAT(errorOf(cameras + "silhouettes: guessed\n"),
-              HasSubstr("test.yaml:3: silhouettes: expected extracted or ground_truth"));
-  EXPECT_THAT(errorOf(cameras + "body_model: builtin:horse\n"),
-              HasSubstr("body_model: unknown built-in model (known: builtin:hand, builtin:human)"));
-  EXPECT_THAT(errorOf(cameras + "scene_motion: /no/such/walk.bvh\n"),
-              HasSubstr("test.yaml:3: scene_motion: no such file: /no/such/walk.bvh"));
   const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
-  EXPECT_THAT(errorOf(cameras + "body_model: builtin:hand\nscene_motion: " + walk + "\n"),
-              HasSubstr("body_model: a scene_motion (BVH) drives a human body, not builtin:hand"));
+  // (configuration, what its error must say)
+  const std::pair<std::string, std::string> cases[] = {
+      {cameras + "tracker:\n  evaluations: -5\n",
+       "test.yaml:4: tracker.evaluations: must be between 1 and"},
+      {cameras + "tracker: {method: magic}\n",
+       "tracker.method: expected factored, condensation or annealed"},
+      {cameras + "tracker: {inject: limbs}\n",
+       "tracker.inject: expected dof or segment, got 'limbs'"},
+      {cameras + "tracker: {lookahead: ahead}\n",
+       "tracker.lookahead: expected none, root, subtree or body, got 'ahead'"},
+      {cameras + "tracker: {refine: 1.5}\n", "tracker.refine: must be between 0 and 0.99"},
+      {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
+      {cameras + "tracker: {refine_restarts: 2}\n",
+       "tracker.refine_restarts: must be between 0 and 1"},
+      {cameras + "listen: nowhere\n", "test.yaml:3: listen:"},
+      {cameras + "trackr: {}\n", "trackr: unknown key"},
+      {"cameras:\n  - {driver: nosuch}\n", "cameras[0].driver: no driver 'nosuch'"},
+      {"cameras: []\n", "cameras: expected a non-empty list"},
+      {cameras + "  - {driver: fake, width: 780, height: 580, fps: 30}\n",
+       "cameras[1].fps: every camera of the rig must run at the same rate"},
+      {cameras + "calibration: /no/such/rig.yaml\n", "calibration: no such file"},
+      {cameras + "auth: {token: short}\n", "at least 16 characters"},
+      {cameras + "recording_directory: /no/such/dir\n",
+       "recording_directory: not an existing directory"},
+      {cameras + "tls: {cert: /no/cert.pem}\n", "tls: needs both 'cert' and 'key'"},
+      {"cameras: [\n", "test.yaml:"},
+      {cameras + "background_directory: /no/such/dir\n",
+       "test.yaml:3: background_directory: not an existing directory"},
+      {cameras + "silhouettes: guessed\n",
+       "test.yaml:3: silhouettes: expected extracted or ground_truth"},
+      {cameras + "body_model: builtin:horse\n",
+       "body_model: unknown built-in model (known: builtin:hand, builtin:human)"},
+      {cameras + "scene_motion: /no/such/walk.bvh\n",
+       "test.yaml:3: scene_motion: no such file: /no/such/walk.bvh"},
+      {cameras + "body_model: builtin:hand\nscene_motion: " + walk + "\n",
+       "body_model: a scene_motion (BVH) drives a human body, not builtin:hand"},
+  };
+  for (const auto& [yaml, expected] : cases) EXPECT_THAT(errorOf(yaml), HasSubstr(expected)) << yaml;
 }
 
 TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {

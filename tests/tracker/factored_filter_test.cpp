@@ -288,13 +288,14 @@ TEST(FactoredFilter, RefinementHoldingTheChildrenUndoesATurnedPelvis) {
     const Eigen::Matrix3d local = Eigen::AngleAxisd(-start[0], Eigen::Vector3d::UnitZ()) *
                                   localTransform(model, 1 + leg, truth).linear();
     // Of the two angle triples giving that rotation, the one with the smaller angles.
-    Eigen::Vector3d xyz = local.eulerAngles(0, 1, 2);
-    const Eigen::Vector3d other(xyz[0] + M_PI, M_PI - xyz[1], xyz[2] + M_PI);
-    for (int j = 0; j < 3; ++j) xyz[j] = std::remainder(xyz[j], 2 * M_PI);
-    if (xyz.cwiseAbs().sum() > other.unaryExpr([](double a) { return std::remainder(a, 2 * M_PI); })
-                                   .cwiseAbs()
-                                   .sum())
-      xyz = other.unaryExpr([](double a) { return std::remainder(a, 2 * M_PI); });
+    const auto wrapped = [](const Eigen::Vector3d& a) {
+      return Eigen::Vector3d(a.unaryExpr([](double x) { return std::remainder(x, 2 * M_PI); }));
+    };
+    const Eigen::Vector3d euler = local.eulerAngles(0, 1, 2);
+    Eigen::Vector3d xyz = wrapped(euler);
+    const Eigen::Vector3d other =
+        wrapped(Eigen::Vector3d(euler[0] + M_PI, M_PI - euler[1], euler[2] + M_PI));
+    if (other.cwiseAbs().sum() < xyz.cwiseAbs().sum()) xyz = other;
     for (int j = 0; j < 3; ++j) {
       const Dof& dof = model.dofs[seg.dofs[j]];
       start[seg.dofs[j]] = dof.axis.sum() * xyz[j];

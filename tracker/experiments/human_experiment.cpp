@@ -261,6 +261,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   int residual_count = 0;
   for (int f = 0; f < frames; ++f)
     for (double r : retarget.residual_mm[f]) residual += r, ++residual_count;
+  const bool refined = config.method == "factored" && options.refine_share > 0;
   nlohmann::json out = {
       {"experiment", "human"},
       {"motion", std::filesystem::path(config.motion_path).filename().string()},
@@ -273,10 +274,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"threads", pool.size()},
       {"injection", options.injection_share},
       {"inject", options.injection == FilterOptions::Injection::kSegment ? "segment" : "dof"},
-      {"refine", config.method == "factored" ? options.refine_share : 0.0},
-      {"refine_hold", config.method == "factored" && options.refine_share > 0 && options.refine_hold},
-      {"refine_restart_share",
-       config.method == "factored" && options.refine_share > 0 ? options.refine_restart_share : 0.0},
+      {"refine", refined ? options.refine_share : 0.0},
+      {"refine_hold", refined && options.refine_hold},
+      {"refine_restart_share", refined ? options.refine_restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
       {"mpjpe_mm", mpjpe / frames},

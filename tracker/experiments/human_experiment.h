@@ -27,9 +27,10 @@ void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera);
 
 // The factored filter's options for the human body, chosen on the walk (seeds 1-3; see
 // docs/human.md): look-ahead over the whole body, 5 % of the candidates injected with a segment's
-// angles at once, and 40 % of the budget on the full-body refinement, which also turns segments with
-// their ball-joint children held and restarts one limb per frame with 14 % of the refinement (32
-// random draws at 2000 evaluations; walk seeds 1-6). The paper's options differ in all three (none, one DOF at 2 %, no refinement).
+// angles at once, and 40 % of the budget on the full-body refinement, which also turns segments
+// with their ball-joint children held and restarts one limb per frame with 14 % of the refinement
+// (32 random draws at 2000 evaluations; walk seeds 1-6). The paper has no look-ahead, injects one
+// DOF into 2 % and does not refine.
 FilterOptions humanFilterDefaults();
 
 struct HumanExperimentConfig {
