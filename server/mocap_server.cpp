@@ -106,7 +106,17 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
                              "names no calibration file");
       server->rig_ = std::make_unique<Rig>(session->rig());
     }
-    if (!server->model_) server->model_ = std::make_unique<BodyModel>(builtinHandModel());
+    // The body the session was tracked with, unless the configuration names one; sessions that
+    // store none were recorded before bodies were stored, when the daemon tracked the hand.
+    if (!server->model_) {
+      if (session->bodyModel()) {
+        server->model_ = std::make_unique<BodyModel>(*session->bodyModel());
+      } else {
+        logWarning() << "replay: the session stores no body model and the configuration names "
+                        "none; tracking the built-in hand";
+        server->model_ = std::make_unique<BodyModel>(builtinHandModel());
+      }
+    }
     inputs.replay = std::move(session);
   } else {
     bool any_fake = false, all_fake = true;

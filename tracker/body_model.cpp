@@ -191,6 +191,82 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   return model;
 }
 
+namespace {
+
+void emitVec3(YAML::Emitter& out, const Eigen::Vector3d& v) {
+  out << YAML::Flow << YAML::BeginSeq << v.x() << v.y() << v.z() << YAML::EndSeq;
+}
+
+void emitShape(YAML::Emitter& out, const Shape& shape) {
+  out << YAML::Flow << YAML::BeginMap;
+  if (shape.type == ShapeType::kTruncatedCone) {
+    out << YAML::Key << "type" << YAML::Value << "cone" << YAML::Key << "axis" << YAML::Value;
+    emitVec3(out, shape.axis);
+    out << YAML::Key << "length" << YAML::Value << shape.length;
+    out << YAML::Key << "radius_start" << YAML::Value << shape.radius_start;
+    out << YAML::Key << "radius_end" << YAML::Value << shape.radius_end;
+  } else {
+    out << YAML::Key << "type" << YAML::Value << "ellipsoid" << YAML::Key << "center" << YAML::Value;
+    emitVec3(out, shape.center);
+    out << YAML::Key << "radii" << YAML::Value;
+    emitVec3(out, shape.radii);
+  }
+  out << YAML::EndMap;
+}
+
+}  // namespace
+
+std::string formatBodyModel(const BodyModel& model) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);  // enough digits to read back the same double
+  out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << model.name;
+  if (!model.gait_dofs.empty()) {
+    out << YAML::Key << "gait_dofs" << YAML::Value << YAML::Flow << model.gait_dofs;
+  }
+  out << YAML::Key << "segments" << YAML::Value << YAML::BeginSeq;
+  for (std::size_t s = 0; s < model.segments.size(); ++s) {
+    const Segment& seg = model.segments[s];
+    out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << seg.name;
+    if (seg.parent >= 0) out << YAML::Key << "parent" << YAML::Value << model.segments[seg.parent].name;
+    out << YAML::Key << "offset" << YAML::Value;
+    emitVec3(out, seg.offset);
+    if (!seg.dofs.empty()) {
+      out << YAML::Key << "dofs" << YAML::Value << YAML::BeginSeq;
+      for (int d : seg.dofs) {
+        const Dof& dof = model.dofs[d];
+        const bool rotation = dof.type == DofType::kRotation;
+        const double unit = rotation ? 1.0 / kDegToRad : 1.0;
+        out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << dof.name;
+        out << YAML::Key << "type" << YAML::Value << (rotation ? "rotation" : "translation");
+        out << YAML::Key << "axis" << YAML::Value;
+        emitVec3(out, dof.axis);
+        out << YAML::Key << "min" << YAML::Value << dof.min * unit;
+        out << YAML::Key << "max" << YAML::Value << dof.max * unit;
+        out << YAML::Key << "max_speed" << YAML::Value << dof.max_speed * unit << YAML::EndMap;
+      }
+      out << YAML::EndSeq;
+    }
+    if (seg.shape.type != ShapeType::kNone) {
+      out << YAML::Key << "shape" << YAML::Value;
+      emitShape(out, seg.shape);
+    }
+    bool any_point = false;
+    for (const BodyPoint& point : model.points) {
+      if (point.segment != static_cast<int>(s)) continue;
+      if (!any_point) out << YAML::Key << "points" << YAML::Value << YAML::BeginSeq;
+      any_point = true;
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << point.name;
+      out << YAML::Key << "at" << YAML::Value;
+      emitVec3(out, point.local);
+      out << YAML::EndMap;
+    }
+    if (any_point) out << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
 BodyModel loadBodyModel(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open body model file");

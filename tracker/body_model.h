@@ -80,5 +80,8 @@ BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& f
 // std::runtime_error with "<source>:<line>: <field path>: <reason>" on any bad input.
 BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source);
 BodyModel loadBodyModel(const std::string& path);
+// The model as YAML that parseBodyModel reads back to the same model (to rounding in the last bit
+// of angles, which the file holds in degrees): how a session stores the body it was tracked with.
+std::string formatBodyModel(const BodyModel& model);
 
 }  // namespace mocap

@@ -97,7 +97,8 @@ Recorder::Recorder(fs::path root, RecorderOptions options)
 
 Recorder::~Recorder() { close(); }
 
-Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras) {
+Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras,
+                      const BodyModel* body) {
   if (isOpen()) return Status::Error("recorder: already recording to " + session_.string());
   if (cameras.empty()) return Status::Error("recorder: no cameras to record");
   if (!rig.empty() && rig.size() != cameras.size()) {
@@ -129,6 +130,7 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   manifest.start_time_utc = utcNowIso8601();
   manifest.start_monotonic_ns = monotonicNowNs();
   manifest.calibration_file = rig.empty() ? "" : kCalibrationFile;
+  manifest.body_model_file = body ? kBodyModelFile : "";
   manifest.cameras = cameras;
   if (!rig.empty()) {
     try {
@@ -136,6 +138,10 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
     } catch (const std::exception& e) {
       return Status::Error(std::string("recorder: ") + e.what());
     }
+  }
+  if (body) {
+    if (Status status = writeFileAtomically(session / kBodyModelFile, formatBodyModel(*body)); !status.ok())
+      return Status::Error("recorder: " + status.message());
   }
   files_.assign(cameras.size(), CameraFiles{});
   for (std::size_t i = 0; i < cameras.size(); ++i) {

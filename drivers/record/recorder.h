@@ -16,6 +16,7 @@
 #include "drivers/record/session_format.h"
 #include "drivers/status.h"
 #include "drivers/sync/frame_synchronizer.h"
+#include "tracker/body_model.h"
 #include "tracker/camera.h"
 
 namespace mocap {
@@ -60,8 +61,10 @@ class Recorder {
   // Creates the session at `dir` (relative to the root, or absolute inside it), writes the manifest
   // and calibration, starts the writer. Refuses a path with "..", one outside the root (also
   // through symlinks), an existing non-empty directory, and a rig whose size is not the camera
-  // count (an empty rig is allowed: no calibration file).
-  Status open(const std::filesystem::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras);
+  // count (an empty rig is allowed: no calibration file). `body`, if given, is stored as the body
+  // model the session was tracked with.
+  Status open(const std::filesystem::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras,
+              const BodyModel* body = nullptr);
 
   // Queues a set (pixels shared, not copied). Never blocks on the disk: drops the set when the
   // queue is full. Frames are matched to cameras by their index in FrameSet::frames.

@@ -102,6 +102,7 @@ std::string emitManifest(const SessionManifest& m) {
   out << YAML::Key << "start_time_utc" << YAML::Value << m.start_time_utc;
   out << YAML::Key << "start_monotonic_ns" << YAML::Value << m.start_monotonic_ns;
   out << YAML::Key << "calibration" << YAML::Value << m.calibration_file;
+  if (!m.body_model_file.empty()) out << YAML::Key << "body_model" << YAML::Value << m.body_model_file;
   out << YAML::Key << "cameras" << YAML::Value << YAML::BeginSeq;
   for (const SessionCamera& c : m.cameras) {
     out << YAML::BeginMap;
@@ -149,6 +150,13 @@ Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std:
   if (Status s = scalar(root["calibration"], "calibration", m.calibration_file); !s.ok()) return s;
   if (m.calibration_file.find('/') != std::string::npos || m.calibration_file == "..") {
     return fail("calibration", "'" + m.calibration_file + "' is not a file name in the session");
+  }
+  // Optional: sessions recorded before the body model was stored have none.
+  if (root["body_model"]) {
+    if (Status s = scalar(root["body_model"], "body_model", m.body_model_file); !s.ok()) return s;
+    if (!isPlainFileName(m.body_model_file)) {
+      return fail("body_model", "'" + m.body_model_file + "' is not a file name in the session");
+    }
   }
   const YAML::Node cameras = root["cameras"];
   if (!cameras) return fail("cameras", "missing");

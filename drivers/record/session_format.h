@@ -3,6 +3,8 @@
 //   <session>/manifest.yaml      cameras (name, width, height, pixel_format, fps), calibration file,
 //                                software version, start time (UTC and CLOCK_MONOTONIC)
 //   <session>/calibration.yaml   the rig, OpenCV FileStorage (saveRig); absent if no rig was given
+//   <session>/body.yaml          the body model tracked while recording (formatBodyModel), so a
+//                                replay tracks the same body; absent in sessions without one
 //   <session>/cam<i>/NNNNNN.png  lossless images, numbered consecutively per camera from 000000
 //   <session>/cam<i>/index.csv   one line per stored frame:
 //                                set_sequence,camera_sequence,timestamp_ns,dropped_before,corrupt,file
@@ -24,6 +26,7 @@ namespace mocap {
 
 inline constexpr const char* kManifestFile = "manifest.yaml";
 inline constexpr const char* kCalibrationFile = "calibration.yaml";
+inline constexpr const char* kBodyModelFile = "body.yaml";
 inline constexpr const char* kSetsFile = "sets.csv";
 inline constexpr const char* kIndexFile = "index.csv";
 inline constexpr const char* kIndexHeader =
@@ -49,6 +52,7 @@ struct SessionManifest {
   std::string start_time_utc;   // ISO 8601
   int64_t start_monotonic_ns = 0;
   std::string calibration_file;  // relative to the session; empty: no calibration
+  std::string body_model_file;   // relative to the session; empty: no body model (optional key)
   std::vector<SessionCamera> cameras;
 };
 

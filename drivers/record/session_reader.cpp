@@ -100,6 +100,14 @@ Status SessionReader::load(const SessionReadOptions& options) {
     }
   }
 
+  if (!manifest_.body_model_file.empty()) {
+    try {
+      body_model_ = loadBodyModel((dir_ / manifest_.body_model_file).string());
+    } catch (const std::exception& e) {
+      return Status::Error(e.what());
+    }
+  }
+
   // Each camera's records by set sequence.
   std::vector<std::map<uint64_t, IndexRecord>> records(camera_count);
   for (std::size_t c = 0; c < camera_count; ++c) {

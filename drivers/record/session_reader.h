@@ -5,12 +5,14 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "drivers/frame.h"
 #include "drivers/record/session_format.h"
 #include "drivers/status.h"
+#include "tracker/body_model.h"
 #include "tracker/camera.h"
 
 namespace mocap {
@@ -32,9 +34,10 @@ struct SessionReadOptions {
 class SessionReader {
  public:
   // Fails with a message naming the file and field or frame: missing or bad manifest, unreadable
-  // calibration, an index line that does not parse, a set whose frame has no index line, a missing
-  // or truncated image, an image whose size or type is not the manifest's. A truncated last line of
-  // an index or of sets.csv (a crash mid-append) is dropped and noted in notes().
+  // calibration or body model, an index line that does not parse, a set whose frame has no index
+  // line, a missing or truncated image, an image whose size or type is not the manifest's. A
+  // truncated last line of an index or of sets.csv (a crash mid-append) is dropped and noted in
+  // notes().
   static Expected<std::unique_ptr<SessionReader>> open(const std::filesystem::path& dir,
                                                        SessionReadOptions options = {});
 
@@ -42,6 +45,8 @@ class SessionReader {
   const SessionManifest& manifest() const { return manifest_; }
   const std::vector<SessionCamera>& cameras() const { return manifest_.cameras; }
   const Rig& rig() const { return rig_; }  // empty if the session has no calibration
+  // The body model the session was tracked with; nullptr if the session stores none.
+  const BodyModel* bodyModel() const { return body_model_ ? &*body_model_ : nullptr; }
   const std::vector<SessionSet>& sets() const { return sets_; }
   // What was tolerated at open (dropped partial lines, uncommitted frames), one line each.
   const std::vector<std::string>& notes() const { return notes_; }
@@ -60,6 +65,7 @@ class SessionReader {
   std::filesystem::path dir_;
   SessionManifest manifest_;
   Rig rig_;
+  std::optional<BodyModel> body_model_;
   std::vector<SessionSet> sets_;
   std::vector<std::string> notes_;
 };

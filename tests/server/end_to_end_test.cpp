@@ -354,5 +354,30 @@ TEST_F(EndToEndTest, ReplayGivesIdenticalPosesEveryRun) {
   fs::remove_all(root);
 }
 
+TEST_F(EndToEndTest, ReplayTracksTheBodyTheSessionWasRecordedWith) {
+  const fs::path root = freshDirectory("replay_body");
+  {
+    ServerConfig config = test::sceneConfig();
+    config.body_model = "builtin:human";
+    config.recording_directory = fs::canonical(root).string();
+    std::unique_ptr<MocapServer> server = startServer(config);
+    ASSERT_TRUE(server);
+    auto stub = test::connect(server->port());
+    {  // recording starts once every camera has sent a frame: wait for the first pose
+      grpc::ClientContext context;
+      v1::Pose pose;
+      ASSERT_TRUE(stub->StreamPoses(&context, v1::StreamPosesRequest())->Read(&pose));
+      context.TryCancel();
+    }
+    record(*stub, "session", 10);
+  }
+  // The replay's configuration names no body: the session's own (31 DOFs) is tracked, not the
+  // built-in hand (15).
+  const auto poses = replay(root / "session");
+  ASSERT_FALSE(poses.empty());
+  for (const auto& [sequence, dofs] : poses) ASSERT_EQ(dofs.size(), 31u) << "frame " << sequence;
+  fs::remove_all(root);
+}
+
 }  // namespace
 }  // namespace mocap

@@ -1,5 +1,8 @@
-// Body model YAML loading: the built-in hand, and errors that name the file, line and field.
+// Body model YAML loading: the built-in hand, errors that name the file, line and field, and the
+// YAML a session stores the model in, read back to the same model.
 #include "tracker/body_model.h"
+
+#include "tracker/builtin_models.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -103,12 +106,6 @@ TEST(BodyModel, MissingFileIsNamed) {
       std::runtime_error);
 }
 
-}  // namespace
-}  // namespace mocap
-
-namespace mocap {
-namespace {
-
 TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
   const BodyModel m = loadBodyModel(std::string(MOCAP_SOURCE_DIR) + "/tracker/models/human.yaml");
   EXPECT_EQ(m.dofs.size(), 31u);
@@ -126,6 +123,60 @@ TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
   EXPECT_EQ(free, 17);
   EXPECT_FALSE(gait.isStatic(m.segmentIndex("l_forearm")));  // still moved by the trunk
   EXPECT_THROW(freezeAllBut(m, {"no_such_dof"}, m.neutralPose()), std::invalid_argument);
+}
+
+void expectSameModel(const BodyModel& a, const BodyModel& b) {
+  constexpr double kTolerance = 1e-12;  // degrees and back may move the last bit of an angle
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.gait_dofs, b.gait_dofs);
+  ASSERT_EQ(a.segments.size(), b.segments.size());
+  for (std::size_t s = 0; s < a.segments.size(); ++s) {
+    const Segment &x = a.segments[s], &y = b.segments[s];
+    SCOPED_TRACE(x.name);
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.parent, y.parent);
+    EXPECT_EQ(x.dofs, y.dofs);
+    EXPECT_LT((x.offset - y.offset).norm(), kTolerance);
+    EXPECT_EQ(x.shape.type, y.shape.type);
+    EXPECT_NEAR(x.shape.length, y.shape.length, kTolerance);
+    EXPECT_NEAR(x.shape.radius_start, y.shape.radius_start, kTolerance);
+    EXPECT_NEAR(x.shape.radius_end, y.shape.radius_end, kTolerance);
+    EXPECT_LT((x.shape.axis - y.shape.axis).norm(), kTolerance);
+    EXPECT_LT((x.shape.center - y.shape.center).norm(), kTolerance);
+    EXPECT_LT((x.shape.radii - y.shape.radii).norm(), kTolerance);
+  }
+  ASSERT_EQ(a.dofs.size(), b.dofs.size());
+  for (std::size_t d = 0; d < a.dofs.size(); ++d) {
+    const Dof &x = a.dofs[d], &y = b.dofs[d];
+    SCOPED_TRACE(x.name);
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.type, y.type);
+    EXPECT_EQ(x.segment, y.segment);
+    EXPECT_LT((x.axis - y.axis).norm(), kTolerance);
+    EXPECT_NEAR(x.min, y.min, kTolerance);
+    EXPECT_NEAR(x.max, y.max, kTolerance);
+    EXPECT_NEAR(x.max_speed, y.max_speed, kTolerance);
+    EXPECT_EQ(x.isFree(), y.isFree());
+  }
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (std::size_t p = 0; p < a.points.size(); ++p) {
+    EXPECT_EQ(a.points[p].name, b.points[p].name);
+    EXPECT_EQ(a.points[p].segment, b.points[p].segment);
+    EXPECT_LT((a.points[p].local - b.points[p].local).norm(), kTolerance);
+  }
+}
+
+TEST(BodyModel, FormattedYamlReadsBackAsTheSameModel) {
+  BodyModel human = builtinHumanModel();
+  human.segments[human.segmentIndex("l_shin")].shape.length *= 1.1;  // a fitted subject
+  Eigen::VectorXd pose = human.neutralPose();
+  pose[human.dofIndex("l_knee_flex")] = 0.3;
+  const BodyModel gait = freezeAllBut(human, human.gait_dofs, pose);  // frozen DOFs: min == max
+  for (const BodyModel& model : {builtinHandModel(), human, gait,
+                                 parseBodyModel(kTwoSegments, "arm.yaml")}) {
+    SCOPED_TRACE(model.name);
+    expectSameModel(model, parseBodyModel(formatBodyModel(model), "formatted"));
+  }
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
-// Recorder and SessionReader: round trips, crash tolerance, bad sessions, path confinement.
+// Recorder and SessionReader: round trips, the stored body model, crash tolerance, bad sessions,
+// path confinement.
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -15,6 +16,7 @@
 
 #include "drivers/record/recorder.h"
 #include "drivers/record/session_reader.h"
+#include "tracker/builtin_models.h"
 
 namespace mocap {
 namespace {
@@ -209,6 +211,44 @@ TEST_F(SessionTest, BadManifestFieldIsNamed) {
   EXPECT_THAT(error, HasSubstr("manifest.yaml"));
   EXPECT_THAT(error, HasSubstr("cameras[0].width"));
   EXPECT_THAT(error, HasSubstr("-3"));
+}
+
+TEST_F(SessionTest, StoresTheBodyModelItWasTrackedWith) {
+  const BodyModel body = builtinHumanModel();
+  Recorder recorder(root_);
+  ASSERT_TRUE(recorder.open("with_body", rig(), cameras(kPixelGray), &body).ok());
+  recorder.write(makeSet(0, CV_8UC1));
+  ASSERT_TRUE(recorder.close().ok());
+  Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(recorder.sessionPath());
+  ASSERT_TRUE(reader.ok()) << reader.error();
+  ASSERT_NE(reader.value()->bodyModel(), nullptr);
+  EXPECT_EQ(reader.value()->bodyModel()->name, body.name);
+  EXPECT_EQ(reader.value()->bodyModel()->dofs.size(), body.dofs.size());
+  EXPECT_EQ(reader.value()->bodyModel()->points.size(), body.points.size());
+
+  Expected<std::unique_ptr<SessionReader>> without = SessionReader::open(record("without", CV_8UC1, 1));
+  ASSERT_TRUE(without.ok()) << without.error();
+  EXPECT_EQ(without.value()->bodyModel(), nullptr);
+  EXPECT_FALSE(fs::exists(without.value()->path() / kBodyModelFile));
+}
+
+TEST_F(SessionTest, BadBodyModelIsNamed) {
+  const BodyModel body = builtinHandModel();
+  Recorder recorder(root_);
+  ASSERT_TRUE(recorder.open("bad_body", rig(), cameras(kPixelGray), &body).ok());
+  ASSERT_TRUE(recorder.close().ok());
+  std::ofstream(recorder.sessionPath() / kBodyModelFile, std::ios::trunc)
+      << "name: hand\nsegments:\n  - name: palm\n    shape: {type: blob}\n";
+  const std::string error = openError(recorder.sessionPath());
+  EXPECT_THAT(error, HasSubstr("body.yaml"));
+  EXPECT_THAT(error, HasSubstr("shape.type"));
+
+  // A manifest pointing outside the session is refused before anything is read.
+  std::ifstream in(recorder.sessionPath() / kManifestFile);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("body_model: body.yaml"), 21, "body_model: ../body.yaml");
+  std::ofstream(recorder.sessionPath() / kManifestFile, std::ios::trunc) << text;
+  EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("body_model: '../body.yaml' is not a file name"));
 }
 
 TEST_F(SessionTest, BadIndexLineIsNamedWithItsLine) {
