@@ -200,6 +200,8 @@ class ConfigParser {
              "a scene_motion (BVH) drives a human body, not builtin:hand");
     }
 
+    if (config.body_model == "builtin:human" || !config.scene_motion.empty())
+      config.tracker = TrackerSettings::forPeople();
     if (const YAML::Node tracker = root["tracker"]) {
       onlyKeys(tracker, "tracker",
                {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
@@ -325,6 +327,18 @@ class ConfigParser {
 };
 
 }  // namespace
+
+TrackerSettings TrackerSettings::forPeople() {
+  TrackerSettings people;
+  people.evaluations = 2000;
+  people.inject = "segment";
+  people.injection = 0.05;
+  people.lookahead = "body";
+  people.refine = 0.4;
+  people.refine_hold = true;
+  people.refine_restarts = 0.14;
+  return people;
+}
 
 ServerConfig parseConfig(const std::string& yaml_text, const std::string& source,
                          const std::string& base_directory) {

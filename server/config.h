@@ -39,6 +39,11 @@ struct TrackerSettings {
   double refine = 0;
   bool refine_hold = false;
   double refine_restarts = 0;
+
+  // The defaults when the tracked body is a person (body_model: builtin:human, or a scene_motion):
+  // docs/human.md's options, the experiment's humanFilterDefaults() at 2000 evaluations. The
+  // defaults above are the paper's hand setup. Keys under `tracker:` override either.
+  static TrackerSettings forPeople();
 };
 
 struct SyncSettings {

@@ -146,7 +146,9 @@ TEST(ExampleConfigsTest, V4l2TwoUsbCamerasAt800x600) {
     EXPECT_EQ(camera.height, 600);
     EXPECT_EQ(camera.fps, 25.0);
   }
-  EXPECT_EQ(config.body_model, "builtin:hand");
+  EXPECT_EQ(config.body_model, "builtin:human");
+  EXPECT_EQ(config.tracker.evaluations, 2000);  // the people defaults, on two threads
+  EXPECT_EQ(config.tracker.threads, 2);
   expectRigFits(config);
 }
 

@@ -54,6 +54,29 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   EXPECT_EQ(plain.tracker.refine_restarts, 0);
 }
 
+TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  const ServerConfig person = parseConfig(cameras + "body_model: builtin:human\n", "test.yaml", ".");
+  EXPECT_EQ(person.tracker.evaluations, 2000);
+  EXPECT_EQ(person.tracker.inject, "segment");
+  EXPECT_EQ(person.tracker.injection, 0.05);
+  EXPECT_EQ(person.tracker.lookahead, "body");
+  EXPECT_EQ(person.tracker.refine, 0.4);
+  EXPECT_TRUE(person.tracker.refine_hold);
+  EXPECT_EQ(person.tracker.refine_restarts, 0.14);
+
+  const ServerConfig tuned = parseConfig(
+      cameras + "body_model: builtin:human\ntracker: {evaluations: 800, refine_hold: false}\n",
+      "test.yaml", ".");
+  EXPECT_EQ(tuned.tracker.evaluations, 800);
+  EXPECT_FALSE(tuned.tracker.refine_hold);
+  EXPECT_EQ(tuned.tracker.lookahead, "body");  // the keys not given keep the people defaults
+
+  const ServerConfig hand = parseConfig(cameras + "body_model: builtin:hand\n", "test.yaml", ".");
+  EXPECT_EQ(hand.tracker.evaluations, 375);
+  EXPECT_EQ(hand.tracker.lookahead, "none");
+}
+
 TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
