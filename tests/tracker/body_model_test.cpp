@@ -2,12 +2,12 @@
 // YAML a session stores the model in, read back to the same model.
 #include "tracker/body_model.h"
 
-#include "tracker/builtin_models.h"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+
+#include "tracker/builtin_models.h"
 
 namespace mocap {
 namespace {
@@ -170,8 +170,8 @@ TEST(BodyModel, FormattedYamlReadsBackAsTheSameModel) {
   BodyModel human = builtinHumanModel();
   human.segments[human.segmentIndex("l_shin")].shape.length *= 1.1;  // a fitted subject
   Eigen::VectorXd pose = human.neutralPose();
-  pose[human.dofIndex("l_knee_flex")] = 0.3;
-  const BodyModel gait = freezeAllBut(human, human.gait_dofs, pose);  // frozen DOFs: min == max
+  pose[human.dofIndex("l_elbow_flex")] = 0.3;  // not a gait DOF: frozen at 0.3 (min == max)
+  const BodyModel gait = freezeAllBut(human, human.gait_dofs, pose);
   for (const BodyModel& model : {builtinHandModel(), human, gait,
                                  parseBodyModel(kTwoSegments, "arm.yaml")}) {
     SCOPED_TRACE(model.name);
