@@ -340,6 +340,19 @@ TrackerSettings TrackerSettings::forPeople() {
   return people;
 }
 
+FilterOptions TrackerSettings::filterOptions() const {
+  FilterOptions options;
+  options.evaluations_per_frame = evaluations;
+  options.injection_share = injection;
+  options.injection = parseInjection(inject);
+  options.seed = seed;
+  options.lookahead = parseLookahead(lookahead);
+  options.refine_share = refine;
+  options.refine_hold = refine_hold;
+  options.refine_restart_share = refine_restarts;
+  return options;
+}
+
 ServerConfig parseConfig(const std::string& yaml_text, const std::string& source,
                          const std::string& base_directory) {
   YAML::Node root;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "drivers/camera_driver.h"
+#include "tracker/filter.h"
 
 namespace mocap {
 
@@ -41,9 +42,12 @@ struct TrackerSettings {
   double refine_restarts = 0;
 
   // The defaults when the tracked body is a person (body_model: builtin:human, or a scene_motion):
-  // docs/human.md's options, the experiment's humanFilterDefaults() at 2000 evaluations. The
-  // defaults above are the paper's hand setup. Keys under `tracker:` override either.
+  // docs/human.md's options, the experiment's humanFilterDefaults() at 2000 evaluations (a test
+  // keeps the two equal). The defaults above are the paper's hand setup. Keys under `tracker:`
+  // override either.
   static TrackerSettings forPeople();
+  // The filter's options these settings give (method and threads aside).
+  FilterOptions filterOptions() const;
 };
 
 struct SyncSettings {

@@ -34,19 +34,6 @@ std::string fileNamePart(const std::string& text) {
   return name;
 }
 
-FilterOptions filterOptions(const TrackerSettings& settings) {
-  FilterOptions options;
-  options.evaluations_per_frame = settings.evaluations;
-  options.injection_share = settings.injection;
-  options.injection = parseInjection(settings.inject);
-  options.seed = settings.seed;
-  options.lookahead = parseLookahead(settings.lookahead);
-  options.refine_share = settings.refine;
-  options.refine_hold = settings.refine_hold;
-  options.refine_restart_share = settings.refine_restarts;
-  return options;
-}
-
 }  // namespace
 
 Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig& rig,
@@ -100,7 +87,7 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   synchronizer_ = std::move(created.value());
 
   pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
-  filter_ = makeFilter(config.tracker.method, model_, rig_, filterOptions(config.tracker), *pool_);
+  filter_ = makeFilter(config.tracker.method, model_, rig_, config.tracker.filterOptions(), *pool_);
   filter_->reset(inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
                      ? inputs.initial_pose
                      : model_.neutralPose());

@@ -1,5 +1,5 @@
-// Configuration parsing: the embedded default, and bad values refused with file, line, field and
-// reason.
+// Configuration parsing: the embedded default, the defaults for people, and bad values refused with
+// file, line, field and reason.
 #include "server/config.h"
 
 #include <filesystem>
@@ -8,6 +8,8 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include "tracker/experiments/human_experiment.h"
 
 namespace mocap {
 namespace {
@@ -75,6 +77,19 @@ TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   const ServerConfig hand = parseConfig(cameras + "body_model: builtin:hand\n", "test.yaml", ".");
   EXPECT_EQ(hand.tracker.evaluations, 375);
   EXPECT_EQ(hand.tracker.lookahead, "none");
+}
+
+TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
+  // The daemon does not link the experiments; this keeps its copy of their defaults from drifting.
+  const FilterOptions daemon = TrackerSettings::forPeople().filterOptions();
+  const FilterOptions experiment = humanFilterDefaults();
+  EXPECT_EQ(daemon.evaluations_per_frame, HumanExperimentConfig().evaluations);
+  EXPECT_EQ(daemon.lookahead, experiment.lookahead);
+  EXPECT_EQ(daemon.injection, experiment.injection);
+  EXPECT_EQ(daemon.injection_share, experiment.injection_share);
+  EXPECT_EQ(daemon.refine_share, experiment.refine_share);
+  EXPECT_EQ(daemon.refine_hold, experiment.refine_hold);
+  EXPECT_EQ(daemon.refine_restart_share, experiment.refine_restart_share);
 }
 
 TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
