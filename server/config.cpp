@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -19,7 +20,6 @@ const char* const kDefaultConfigYaml = R"yaml(
 cameras:
   - {driver: fake, device: scene, width: 780, height: 580, fps: 25}
   - {driver: fake, device: scene, width: 780, height: 580, fps: 25}
-tracker: {method: factored, evaluations: 375, threads: 1}
 listen: 127.0.0.1:50051
 )yaml";
 
@@ -157,6 +157,43 @@ class ConfigParser {
     return c;
   }
 
+  // The keys of a `tracker:` map, over the settings in `t`.
+  void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
+    onlyKeys(tracker, "tracker",
+             {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
+              "refine", "refine_hold", "refine_restarts"});
+    if (tracker["method"]) {
+      t.method = text(tracker["method"], "tracker.method");
+      if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
+        fail(tracker["method"], "tracker.method",
+             "expected factored, condensation or annealed, got '" + t.method + "'");
+    }
+    if (tracker["evaluations"])
+      t.evaluations = integer(tracker["evaluations"], "tracker.evaluations", 1, 10'000'000);
+    if (tracker["threads"]) t.threads = integer(tracker["threads"], "tracker.threads", 1, 256);
+    if (tracker["injection"])
+      t.injection = number(tracker["injection"], "tracker.injection", 0, 0.99);
+    if (tracker["inject"]) {
+      t.inject = text(tracker["inject"], "tracker.inject");
+      if (t.inject != "dof" && t.inject != "segment")
+        fail(tracker["inject"], "tracker.inject",
+             "expected dof or segment, got '" + t.inject + "'");
+    }
+    if (tracker["seed"])
+      t.seed = static_cast<uint64_t>(integer(tracker["seed"], "tracker.seed", 0, 2'000'000'000));
+    if (tracker["lookahead"]) {
+      t.lookahead = text(tracker["lookahead"], "tracker.lookahead");
+      if (t.lookahead != "none" && t.lookahead != "root" && t.lookahead != "subtree" &&
+          t.lookahead != "body")
+        fail(tracker["lookahead"], "tracker.lookahead",
+             "expected none, root, subtree or body, got '" + t.lookahead + "'");
+    }
+    if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
+    if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
+    if (tracker["refine_restarts"])
+      t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
+  }
+
   ServerConfig parse(const YAML::Node& root) const {
     ServerConfig config;
     config.source = source_;
@@ -203,40 +240,9 @@ class ConfigParser {
     if (config.body_model == "builtin:human" || !config.scene_motion.empty())
       config.tracker = TrackerSettings::forPeople();
     if (const YAML::Node tracker = root["tracker"]) {
-      onlyKeys(tracker, "tracker",
-               {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
-                "refine", "refine_hold", "refine_restarts"});
-      TrackerSettings& t = config.tracker;
-      if (tracker["method"]) {
-        t.method = text(tracker["method"], "tracker.method");
-        if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
-          fail(tracker["method"], "tracker.method",
-               "expected factored, condensation or annealed, got '" + t.method + "'");
-      }
-      if (tracker["evaluations"])
-        t.evaluations = integer(tracker["evaluations"], "tracker.evaluations", 1, 10'000'000);
-      if (tracker["threads"]) t.threads = integer(tracker["threads"], "tracker.threads", 1, 256);
-      if (tracker["injection"])
-        t.injection = number(tracker["injection"], "tracker.injection", 0, 0.99);
-      if (tracker["inject"]) {
-        t.inject = text(tracker["inject"], "tracker.inject");
-        if (t.inject != "dof" && t.inject != "segment")
-          fail(tracker["inject"], "tracker.inject",
-               "expected dof or segment, got '" + t.inject + "'");
-      }
-      if (tracker["seed"])
-        t.seed = static_cast<uint64_t>(integer(tracker["seed"], "tracker.seed", 0, 2'000'000'000));
-      if (tracker["lookahead"]) {
-        t.lookahead = text(tracker["lookahead"], "tracker.lookahead");
-        if (t.lookahead != "none" && t.lookahead != "root" && t.lookahead != "subtree" &&
-            t.lookahead != "body")
-          fail(tracker["lookahead"], "tracker.lookahead",
-               "expected none, root, subtree or body, got '" + t.lookahead + "'");
-      }
-      if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
-      if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
-      if (tracker["refine_restarts"])
-        t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
+      trackerKeys(tracker, config.tracker);
+      for (const auto& entry : tracker)
+        config.tracker_keys.emplace_back(entry.first.Scalar(), entry.second.Scalar());
     }
 
     if (const YAML::Node sync = root["sync"]) {
@@ -351,6 +357,42 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.refine_hold = refine_hold;
   options.refine_restart_share = refine_restarts;
   return options;
+}
+
+std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() const {
+  // Shortest text that reads back to the same double.
+  const auto exact = [](double value) {
+    std::ostringstream text;
+    for (int digits = 15;; ++digits) {
+      text.str("");
+      text << std::setprecision(digits) << value;
+      if (digits == 17 || std::stod(text.str()) == value) return text.str();
+    }
+  };
+  return {{"method", method},
+          {"evaluations", std::to_string(evaluations)},
+          {"injection", exact(injection)},
+          {"inject", inject},
+          {"seed", std::to_string(seed)},
+          {"lookahead", lookahead},
+          {"refine", exact(refine)},
+          {"refine_hold", refine_hold ? "true" : "false"},
+          {"refine_restarts", exact(refine_restarts)}};
+}
+
+TrackerSettings replayTrackerSettings(const ServerConfig& config,
+                                      const std::vector<std::pair<std::string, std::string>>& stored,
+                                      const std::string& source) {
+  const auto asMap = [](const std::vector<std::pair<std::string, std::string>>& keys) {
+    YAML::Node map(YAML::NodeType::Map);
+    for (const auto& [key, value] : keys) map[key] = value;
+    return map;
+  };
+  TrackerSettings settings;
+  ConfigParser(source, {}).trackerKeys(asMap(stored), settings);
+  settings.threads = config.tracker.threads;
+  ConfigParser(config.source, {}).trackerKeys(asMap(config.tracker_keys), settings);
+  return settings;
 }
 
 ServerConfig parseConfig(const std::string& yaml_text, const std::string& source,

@@ -6,6 +6,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "drivers/camera_driver.h"
@@ -48,6 +49,9 @@ struct TrackerSettings {
   static TrackerSettings forPeople();
   // The filter's options these settings give (method and threads aside).
   FilterOptions filterOptions() const;
+  // Every setting but the thread count (which belongs to the machine, not to the tracking) as the
+  // text of its `tracker:` key: what a recorded session stores.
+  std::vector<std::pair<std::string, std::string>> keyValues() const;
 };
 
 struct SyncSettings {
@@ -67,6 +71,8 @@ struct ServerConfig {
   // onto the body model fitted to the recorded subject; the tracker tracks that fitted body.
   std::string scene_motion;
   TrackerSettings tracker;
+  // The `tracker:` keys the file set itself, as written (a replay applies them over the session's).
+  std::vector<std::pair<std::string, std::string>> tracker_keys;
   SyncSettings sync;
   std::string listen = "127.0.0.1:50051";
   std::string recording_directory;  // empty: recording is off
@@ -96,5 +102,12 @@ extern const char* const kDefaultConfigYaml;
 ServerConfig parseConfig(const std::string& yaml_text, const std::string& source,
                          const std::string& base_directory);
 ServerConfig loadConfigFile(const std::string& path);
+
+// The tracker settings of a replay: the ones the session stored (`stored`, from its manifest,
+// named `source` in errors), with the keys the configuration set itself on top and the
+// configuration's thread count. Throws ConfigError naming the source and the key.
+TrackerSettings replayTrackerSettings(const ServerConfig& config,
+                                      const std::vector<std::pair<std::string, std::string>>& stored,
+                                      const std::string& source);
 
 }  // namespace mocap

@@ -117,6 +117,16 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
         server->model_ = std::make_unique<BodyModel>(builtinHandModel());
       }
     }
+    // Tracked as it was live: the session's tracker settings, under the keys the configuration
+    // sets itself. Sessions that store none take the configuration's.
+    if (!session->trackerSettings().empty()) {
+      try {
+        server->config_.tracker = replayTrackerSettings(
+            config, session->trackerSettings(), (session->path() / kManifestFile).string());
+      } catch (const ConfigError& e) {
+        return Status::Error(std::string("replay: ") + e.what());
+      }
+    }
     inputs.replay = std::move(session);
   } else {
     bool any_fake = false, all_fake = true;

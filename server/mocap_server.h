@@ -40,7 +40,7 @@ class MocapServer {
  private:
   explicit MocapServer(const ServerConfig& config) : config_(config) {}
 
-  const ServerConfig config_;
+  ServerConfig config_;  // as given, but a replay's tracker settings come from the session
   std::unique_ptr<BodyModel> model_;
   std::unique_ptr<Rig> rig_;
   PosePublisher publisher_;

@@ -548,7 +548,7 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   }
   // Opening writes files: done outside the lock so the mask thread never waits on the disk.
   auto recorder = std::make_unique<Recorder>(config_.recording_directory);
-  const Status opened = recorder->open(requested, rig_, cameras, &model_);
+  const Status opened = recorder->open(requested, rig_, cameras, {&model_, config_.tracker.keyValues()});
   if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
   std::lock_guard lock(recording_mutex_);
   if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};

@@ -98,7 +98,7 @@ Recorder::Recorder(fs::path root, RecorderOptions options)
 Recorder::~Recorder() { close(); }
 
 Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras,
-                      const BodyModel* body) {
+                      const SessionTracking& tracking) {
   if (isOpen()) return Status::Error("recorder: already recording to " + session_.string());
   if (cameras.empty()) return Status::Error("recorder: no cameras to record");
   if (!rig.empty() && rig.size() != cameras.size()) {
@@ -130,7 +130,8 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   manifest.start_time_utc = utcNowIso8601();
   manifest.start_monotonic_ns = monotonicNowNs();
   manifest.calibration_file = rig.empty() ? "" : kCalibrationFile;
-  manifest.body_model_file = body ? kBodyModelFile : "";
+  manifest.body_model_file = tracking.body ? kBodyModelFile : "";
+  manifest.tracker_settings = tracking.tracker_settings;
   manifest.cameras = cameras;
   if (!rig.empty()) {
     try {
@@ -139,8 +140,9 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
       return Status::Error(std::string("recorder: ") + e.what());
     }
   }
-  if (body) {
-    if (Status status = writeFileAtomically(session / kBodyModelFile, formatBodyModel(*body)); !status.ok())
+  if (tracking.body) {
+    if (Status status = writeFileAtomically(session / kBodyModelFile, formatBodyModel(*tracking.body));
+        !status.ok())
       return Status::Error("recorder: " + status.message());
   }
   files_.assign(cameras.size(), CameraFiles{});

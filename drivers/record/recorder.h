@@ -49,6 +49,12 @@ struct RecorderStats {
   std::string last_error;
 };
 
+// What the session was tracked with while it was recorded.
+struct SessionTracking {
+  const BodyModel* body = nullptr;  // stored as body.yaml; nullptr: none
+  std::vector<std::pair<std::string, std::string>> tracker_settings;  // the manifest's `tracker:`
+};
+
 // Thread use: open(), write(), close() and stats() from one owner thread (stats() from any).
 class Recorder {
  public:
@@ -61,10 +67,10 @@ class Recorder {
   // Creates the session at `dir` (relative to the root, or absolute inside it), writes the manifest
   // and calibration, starts the writer. Refuses a path with "..", one outside the root (also
   // through symlinks), an existing non-empty directory, and a rig whose size is not the camera
-  // count (an empty rig is allowed: no calibration file). `body`, if given, is stored as the body
-  // model the session was tracked with.
+  // count (an empty rig is allowed: no calibration file). `tracking` is stored so that a replay
+  // tracks the session as it was tracked live.
   Status open(const std::filesystem::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras,
-              const BodyModel* body = nullptr);
+              const SessionTracking& tracking = {});
 
   // Queues a set (pixels shared, not copied). Never blocks on the disk: drops the set when the
   // queue is full. Frames are matched to cameras by their index in FrameSet::frames.

@@ -103,6 +103,11 @@ std::string emitManifest(const SessionManifest& m) {
   out << YAML::Key << "start_monotonic_ns" << YAML::Value << m.start_monotonic_ns;
   out << YAML::Key << "calibration" << YAML::Value << m.calibration_file;
   if (!m.body_model_file.empty()) out << YAML::Key << "body_model" << YAML::Value << m.body_model_file;
+  if (!m.tracker_settings.empty()) {
+    out << YAML::Key << "tracker" << YAML::Value << YAML::BeginMap;
+    for (const auto& [key, value] : m.tracker_settings) out << YAML::Key << key << YAML::Value << value;
+    out << YAML::EndMap;
+  }
   out << YAML::Key << "cameras" << YAML::Value << YAML::BeginSeq;
   for (const SessionCamera& c : m.cameras) {
     out << YAML::BeginMap;
@@ -156,6 +161,15 @@ Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std:
     if (Status s = scalar(root["body_model"], "body_model", m.body_model_file); !s.ok()) return s;
     if (!isPlainFileName(m.body_model_file)) {
       return fail("body_model", "'" + m.body_model_file + "' is not a file name in the session");
+    }
+  }
+  // Optional: sessions recorded before the tracker settings were stored have none.
+  if (const YAML::Node tracker = root["tracker"]) {
+    if (!tracker.IsMap()) return fail("tracker", "expected a map of settings");
+    for (const auto& entry : tracker) {
+      const std::string key = entry.first.Scalar();
+      if (!entry.second.IsScalar()) return fail("tracker." + key, "expected a single value");
+      m.tracker_settings.emplace_back(key, entry.second.Scalar());
     }
   }
   const YAML::Node cameras = root["cameras"];

@@ -1,7 +1,9 @@
 // The on-disk session format shared by the Recorder and the SessionReader.
 //
 //   <session>/manifest.yaml      cameras (name, width, height, pixel_format, fps), calibration file,
-//                                software version, start time (UTC and CLOCK_MONOTONIC)
+//                                software version, start time (UTC and CLOCK_MONOTONIC), and the
+//                                tracker settings the session was tracked with (`tracker:`, the
+//                                daemon configuration's tracker keys; absent in older sessions)
 //   <session>/calibration.yaml   the rig, OpenCV FileStorage (saveRig); absent if no rig was given
 //   <session>/body.yaml          the body model tracked while recording (formatBodyModel), so a
 //                                replay tracks the same body; absent in sessions without one
@@ -18,6 +20,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "drivers/status.h"
@@ -53,6 +56,9 @@ struct SessionManifest {
   int64_t start_monotonic_ns = 0;
   std::string calibration_file;  // relative to the session; empty: no calibration
   std::string body_model_file;   // relative to the session; empty: no body model (optional key)
+  // The tracker's settings as key and value text, in the daemon configuration's `tracker:` keys;
+  // the session format does not interpret them (the daemon does). Empty: none (optional key).
+  std::vector<std::pair<std::string, std::string>> tracker_settings;
   std::vector<SessionCamera> cameras;
 };
 

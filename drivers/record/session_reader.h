@@ -47,6 +47,10 @@ class SessionReader {
   const Rig& rig() const { return rig_; }  // empty if the session has no calibration
   // The body model the session was tracked with; nullptr if the session stores none.
   const BodyModel* bodyModel() const { return body_model_ ? &*body_model_ : nullptr; }
+  // The tracker settings the session was tracked with (the manifest's `tracker:`); empty if none.
+  const std::vector<std::pair<std::string, std::string>>& trackerSettings() const {
+    return manifest_.tracker_settings;
+  }
   const std::vector<SessionSet>& sets() const { return sets_; }
   // What was tolerated at open (dropped partial lines, uncommitted frames), one line each.
   const std::vector<std::string>& notes() const { return notes_; }

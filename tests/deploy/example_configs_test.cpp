@@ -198,8 +198,8 @@ TEST(ExampleConfigsTest, BrokenVariantsNameTheField) {
               HasSubstr("cameras[1].fps: every camera of the rig must run at the same rate"));
 
   const std::filesystem::path system = kDeployDir / "mocapd.yaml";
-  EXPECT_THAT(errorOf(system, replaceOnce(readFile(system), "method: factored", "method: magic")),
-              HasSubstr("mocapd.yaml:8: tracker.method: expected factored"));
+  EXPECT_THAT(errorOf(system, replaceOnce(readFile(system), "threads: 1", "threads: 0")),
+              HasSubstr("mocapd.yaml:9: tracker.threads: must be between 1 and 256"));
 
   if (!compiledIn("aravis")) GTEST_SKIP() << "the aravis driver is not in this build";
   const std::filesystem::path gige = kConfigDir / "gige.yaml";

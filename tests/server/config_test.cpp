@@ -92,6 +92,52 @@ TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
   EXPECT_EQ(daemon.refine_restart_share, experiment.refine_restart_share);
 }
 
+TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKeys) {
+  TrackerSettings recorded = TrackerSettings::forPeople();
+  recorded.seed = 7;
+  recorded.threads = 8;
+  recorded.injection = 0.1 + 0.2;  // not the shortest decimal: must still read back exactly
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+
+  // A configuration without tracker keys: the session's settings, the configuration's threads.
+  const ServerConfig plain = parseConfig(cameras, "replay.yaml", ".");
+  const TrackerSettings as_recorded =
+      replayTrackerSettings(plain, recorded.keyValues(), "session/manifest.yaml");
+  EXPECT_EQ(as_recorded.method, recorded.method);
+  EXPECT_EQ(as_recorded.evaluations, 2000);
+  EXPECT_EQ(as_recorded.injection, recorded.injection);
+  EXPECT_EQ(as_recorded.inject, "segment");
+  EXPECT_EQ(as_recorded.seed, 7u);
+  EXPECT_EQ(as_recorded.lookahead, "body");
+  EXPECT_EQ(as_recorded.refine, 0.4);
+  EXPECT_TRUE(as_recorded.refine_hold);
+  EXPECT_EQ(as_recorded.refine_restarts, 0.14);
+  EXPECT_EQ(as_recorded.threads, 1);
+
+  // Keys the configuration sets itself win.
+  const ServerConfig tuned = parseConfig(
+      cameras + "tracker: {threads: 2, evaluations: 800, refine_hold: false}\n", "replay.yaml", ".");
+  const TrackerSettings overridden =
+      replayTrackerSettings(tuned, recorded.keyValues(), "session/manifest.yaml");
+  EXPECT_EQ(overridden.evaluations, 800);
+  EXPECT_FALSE(overridden.refine_hold);
+  EXPECT_EQ(overridden.threads, 2);
+  EXPECT_EQ(overridden.lookahead, "body");
+
+  // A bad stored setting is named with the session's manifest.
+  const auto errorOfStored = [&](std::vector<std::pair<std::string, std::string>> stored) {
+    try {
+      replayTrackerSettings(plain, stored, "session/manifest.yaml");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_THAT(errorOfStored({{"lookahead", "ahead"}}),
+              HasSubstr("session/manifest.yaml: tracker.lookahead: expected none, root, subtree or body"));
+  EXPECT_THAT(errorOfStored({{"speed", "3"}}), HasSubstr("tracker.speed: unknown key"));
+}
+
 TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";

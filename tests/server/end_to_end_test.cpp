@@ -265,7 +265,9 @@ TEST_F(EndToEndTest, CaptureBackgroundLearnsWhilePosesFlow) {
 }
 
 // Every pose of a replay: frame sequence and DOF vector.
-std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& session) {
+// The poses a replay of `session` publishes (and, if asked, its evaluations per frame).
+std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& session,
+                                                             double* evaluations_per_frame = nullptr) {
   ServerConfig config = test::sceneConfig();
   config.replay_directory = session.string();
   config.as_fast_as_possible = true;
@@ -279,6 +281,8 @@ std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& ses
   });
   EXPECT_TRUE(server.value()->start().ok());
   server.value()->pipeline().waitForReplayEnd();
+  if (evaluations_per_frame)
+    *evaluations_per_frame = server.value()->pipeline().status().evaluations_per_frame;
   server.value()->shutdown();
   return poses;
 }
@@ -354,11 +358,13 @@ TEST_F(EndToEndTest, ReplayGivesIdenticalPosesEveryRun) {
   fs::remove_all(root);
 }
 
-TEST_F(EndToEndTest, ReplayTracksTheBodyTheSessionWasRecordedWith) {
+TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   const fs::path root = freshDirectory("replay_body");
   {
     ServerConfig config = test::sceneConfig();
     config.body_model = "builtin:human";
+    config.tracker = TrackerSettings::forPeople();
+    config.tracker.evaluations = 600;  // not the replay configuration's 375, nor the people's 2000
     config.recording_directory = fs::canonical(root).string();
     std::unique_ptr<MocapServer> server = startServer(config);
     ASSERT_TRUE(server);
@@ -371,11 +377,13 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyTheSessionWasRecordedWith) {
     }
     record(*stub, "session", 10);
   }
-  // The replay's configuration names no body: the session's own (31 DOFs) is tracked, not the
-  // built-in hand (15).
-  const auto poses = replay(root / "session");
+  // The replay's configuration names no body and no tracker keys: the session's own body (31
+  // DOFs) is tracked, not the built-in hand (15), with the session's settings.
+  double evaluations_per_frame = 0;
+  const auto poses = replay(root / "session", &evaluations_per_frame);
   ASSERT_FALSE(poses.empty());
   for (const auto& [sequence, dofs] : poses) ASSERT_EQ(dofs.size(), 31u) << "frame " << sequence;
+  EXPECT_EQ(evaluations_per_frame, 600);
   fs::remove_all(root);
 }
 

@@ -213,10 +213,12 @@ TEST_F(SessionTest, BadManifestFieldIsNamed) {
   EXPECT_THAT(error, HasSubstr("-3"));
 }
 
-TEST_F(SessionTest, StoresTheBodyModelItWasTrackedWith) {
+TEST_F(SessionTest, StoresTheBodyModelAndTrackerSettingsItWasTrackedWith) {
   const BodyModel body = builtinHumanModel();
+  const std::vector<std::pair<std::string, std::string>> settings = {
+      {"method", "factored"}, {"evaluations", "2000"}, {"refine", "0.4"}, {"refine_hold", "true"}};
   Recorder recorder(root_);
-  ASSERT_TRUE(recorder.open("with_body", rig(), cameras(kPixelGray), &body).ok());
+  ASSERT_TRUE(recorder.open("with_body", rig(), cameras(kPixelGray), {&body, settings}).ok());
   recorder.write(makeSet(0, CV_8UC1));
   ASSERT_TRUE(recorder.close().ok());
   Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(recorder.sessionPath());
@@ -225,17 +227,19 @@ TEST_F(SessionTest, StoresTheBodyModelItWasTrackedWith) {
   EXPECT_EQ(reader.value()->bodyModel()->name, body.name);
   EXPECT_EQ(reader.value()->bodyModel()->dofs.size(), body.dofs.size());
   EXPECT_EQ(reader.value()->bodyModel()->points.size(), body.points.size());
+  EXPECT_EQ(reader.value()->trackerSettings(), settings);
 
   Expected<std::unique_ptr<SessionReader>> without = SessionReader::open(record("without", CV_8UC1, 1));
   ASSERT_TRUE(without.ok()) << without.error();
   EXPECT_EQ(without.value()->bodyModel(), nullptr);
+  EXPECT_TRUE(without.value()->trackerSettings().empty());
   EXPECT_FALSE(fs::exists(without.value()->path() / kBodyModelFile));
 }
 
 TEST_F(SessionTest, BadBodyModelIsNamed) {
   const BodyModel body = builtinHandModel();
   Recorder recorder(root_);
-  ASSERT_TRUE(recorder.open("bad_body", rig(), cameras(kPixelGray), &body).ok());
+  ASSERT_TRUE(recorder.open("bad_body", rig(), cameras(kPixelGray), {&body, {}}).ok());
   ASSERT_TRUE(recorder.close().ok());
   std::ofstream(recorder.sessionPath() / kBodyModelFile, std::ios::trunc)
       << "name: hand\nsegments:\n  - name: palm\n    shape: {type: blob}\n";
@@ -249,6 +253,20 @@ TEST_F(SessionTest, BadBodyModelIsNamed) {
   text.replace(text.find("body_model: body.yaml"), 21, "body_model: ../body.yaml");
   std::ofstream(recorder.sessionPath() / kManifestFile, std::ios::trunc) << text;
   EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("body_model: '../body.yaml' is not a file name"));
+}
+
+TEST_F(SessionTest, TrackerSettingsThatAreNotAMapOfValuesAreNamed) {
+  Recorder recorder(root_);
+  ASSERT_TRUE(recorder.open("bad_tracker", rig(), cameras(kPixelGray), {nullptr, {{"evaluations", "800"}}}).ok());
+  ASSERT_TRUE(recorder.close().ok());
+  const fs::path manifest = recorder.sessionPath() / kManifestFile;
+  std::ifstream in(manifest);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  const std::size_t at = text.find("evaluations: 800");
+  ASSERT_NE(at, std::string::npos) << text;
+  std::ofstream(manifest, std::ios::trunc) << text.substr(0, at) + "evaluations: [800, 900]" + text.substr(at + 16);
+  EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("manifest.yaml: tracker.evaluations: expected a single value"));
 }
 
 TEST_F(SessionTest, BadIndexLineIsNamedWithItsLine) {
