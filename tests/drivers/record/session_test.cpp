@@ -48,6 +48,16 @@ class SessionTest : public ::testing::Test {
     }
     return r;
   }
+  // Replaces the first `from` in the session's manifest by `to` (a test failure if it is absent).
+  static void editManifest(const fs::path& session, const std::string& from, const std::string& to) {
+    std::ifstream in(session / kManifestFile);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    const std::size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << "'" << from << "' not in\n" << text;
+    text.replace(at, from.size(), to);
+    std::ofstream(session / kManifestFile, std::ios::trunc) << text;
+  }
   // Set `n`: noisy images (incompressible, like the fake scene's), camera 1 missing in set 2.
   static FrameSet makeSet(uint64_t n, int type) {
     FrameSet set;
@@ -202,11 +212,7 @@ TEST_F(SessionTest, MissingManifestIsNamed) {
 
 TEST_F(SessionTest, BadManifestFieldIsNamed) {
   const fs::path dir = record("bad", CV_8UC1, 2);
-  std::ifstream in(dir / kManifestFile);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string good = "width: " + std::to_string(kWidth);
-  text.replace(text.find(good), good.size(), "width: -3");
-  std::ofstream(dir / kManifestFile, std::ios::trunc) << text;
+  editManifest(dir, "width: " + std::to_string(kWidth), "width: -3");
   const std::string error = openError(dir);
   EXPECT_THAT(error, HasSubstr("manifest.yaml"));
   EXPECT_THAT(error, HasSubstr("cameras[0].width"));
@@ -248,10 +254,7 @@ TEST_F(SessionTest, BadBodyModelIsNamed) {
   EXPECT_THAT(error, HasSubstr("shape.type"));
 
   // A manifest pointing outside the session is refused before anything is read.
-  std::ifstream in(recorder.sessionPath() / kManifestFile);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  text.replace(text.find("body_model: body.yaml"), 21, "body_model: ../body.yaml");
-  std::ofstream(recorder.sessionPath() / kManifestFile, std::ios::trunc) << text;
+  editManifest(recorder.sessionPath(), "body_model: body.yaml", "body_model: ../body.yaml");
   EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("body_model: '../body.yaml' is not a file name"));
 }
 
@@ -259,13 +262,7 @@ TEST_F(SessionTest, TrackerSettingsThatAreNotAMapOfValuesAreNamed) {
   Recorder recorder(root_);
   ASSERT_TRUE(recorder.open("bad_tracker", rig(), cameras(kPixelGray), {nullptr, {{"evaluations", "800"}}}).ok());
   ASSERT_TRUE(recorder.close().ok());
-  const fs::path manifest = recorder.sessionPath() / kManifestFile;
-  std::ifstream in(manifest);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  in.close();
-  const std::size_t at = text.find("evaluations: 800");
-  ASSERT_NE(at, std::string::npos) << text;
-  std::ofstream(manifest, std::ios::trunc) << text.substr(0, at) + "evaluations: [800, 900]" + text.substr(at + 16);
+  editManifest(recorder.sessionPath(), "evaluations: 800", "evaluations: [800, 900]");
   EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("manifest.yaml: tracker.evaluations: expected a single value"));
 }
 
