@@ -13,6 +13,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "tracker/body_model.h"
+
 namespace mocap {
 
 const char* const kDefaultConfigYaml = R"yaml(
@@ -157,6 +159,17 @@ class ConfigParser {
     return c;
   }
 
+  // Whether the body model file `path` (not a built-in) says `kind: person`. Read here, so a bad
+  // model file is refused with the configuration, naming the field.
+  bool bodyFileIsAPerson(const YAML::Node& node, const std::string& path) const {
+    if (path.empty() || path.rfind("builtin:", 0) == 0) return false;
+    try {
+      return loadBodyModel(path).person;
+    } catch (const std::exception& e) {
+      fail(node, "body_model", e.what());
+    }
+  }
+
   // The keys of a `tracker:` map, over the settings in `t`.
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
     onlyKeys(tracker, "tracker",
@@ -237,7 +250,8 @@ class ConfigParser {
              "a scene_motion (BVH) drives a human body, not builtin:hand");
     }
 
-    if (config.body_model == "builtin:human" || !config.scene_motion.empty())
+    if (config.body_model == "builtin:human" || !config.scene_motion.empty() ||
+        bodyFileIsAPerson(root["body_model"], config.body_model))
       config.tracker = TrackerSettings::forPeople();
     if (const YAML::Node tracker = root["tracker"]) {
       trackerKeys(tracker, config.tracker);

@@ -129,6 +129,12 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
+  if (root["kind"]) {
+    const std::string kind = p.text(root["kind"], "kind");
+    if (kind != "person" && kind != "other")
+      p.fail(root["kind"], "kind", "expected person or other, got '" + kind + "'");
+    model.person = kind == "person";
+  }
   YAML::Node segs = p.require(root, "segments", "(top)");
   if (!segs.IsSequence() || segs.size() == 0) p.fail(segs, "segments", "expected a non-empty list");
 
@@ -220,6 +226,7 @@ std::string formatBodyModel(const BodyModel& model) {
   YAML::Emitter out;
   out.SetDoublePrecision(17);  // enough digits to read back the same double
   out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << model.name;
+  if (model.person) out << YAML::Key << "kind" << YAML::Value << "person";
   if (!model.gait_dofs.empty()) {
     out << YAML::Key << "gait_dofs" << YAML::Value << YAML::Flow << model.gait_dofs;
   }

@@ -61,6 +61,9 @@ class BodyModel {
   std::vector<Dof> dofs;          // in segment order: the DBN's hidden-variable order
   std::vector<BodyPoint> points;
   std::vector<std::string> gait_dofs;  // optional subset: the DOFs gait is based on (paper §8.4)
+  // `kind: person` in the file: the body is a person's, so a daemon tracking it starts from the
+  // tracker settings measured on people (TrackerSettings::forPeople) rather than the hand's.
+  bool person = false;
 
   int segmentIndex(const std::string& segment_name) const;  // -1 if absent
   int dofIndex(const std::string& dof_name) const;          // -1 if absent

@@ -3,6 +3,7 @@
 #include "server/config.h"
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <utility>
 
@@ -77,6 +78,33 @@ TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   const ServerConfig hand = parseConfig(cameras + "body_model: builtin:hand\n", "test.yaml", ".");
   EXPECT_EQ(hand.tracker.evaluations, 375);
   EXPECT_EQ(hand.tracker.lookahead, "none");
+}
+
+TEST(ConfigTest, ABodyModelFileSaysWhetherItIsAPerson) {
+  // A subject's fitted body, as a user would install it: the file's `kind: person` chooses the
+  // people defaults, as builtin:human does.
+  const std::string models = std::string(MOCAP_SOURCE_DIR) + "/tracker/models/";
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  const ServerConfig person =
+      parseConfig(cameras + "body_model: " + models + "human.yaml\n", "test.yaml", ".");
+  EXPECT_EQ(person.tracker.evaluations, 2000);
+  EXPECT_EQ(person.tracker.lookahead, "body");
+  const ServerConfig hand =
+      parseConfig(cameras + "body_model: " + models + "hand.yaml\n", "test.yaml", ".");
+  EXPECT_EQ(hand.tracker.evaluations, 375);
+  EXPECT_EQ(hand.tracker.lookahead, "none");
+
+  // A model file that does not load is refused with the configuration.
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "config_kind";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "broken.yaml") << "kind: horse\nsegments: [{name: a}]\n";
+  try {
+    parseConfig(cameras + "body_model: broken.yaml\n", "test.yaml", dir);
+    ADD_FAILURE() << "a broken body model file was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), testing::HasSubstr("test.yaml:3: body_model: "));
+    EXPECT_THAT(e.what(), testing::HasSubstr("broken.yaml:1: kind: expected person or other"));
+  }
 }
 
 TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {

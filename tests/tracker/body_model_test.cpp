@@ -91,6 +91,8 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
 
   EXPECT_THAT(errorOf("segments: [ {name: a"), HasSubstr("bad.yaml:1: not valid YAML"));
   EXPECT_THAT(errorOf("name: x"), HasSubstr("(top).segments: missing"));
+  EXPECT_THAT(errorOf(std::string("kind: horse\n") + kTwoSegments),
+              HasSubstr("bad.yaml:1: kind: expected person or other, got 'horse'"));
 }
 
 TEST(BodyModel, MissingFileIsNamed) {
@@ -108,6 +110,9 @@ TEST(BodyModel, MissingFileIsNamed) {
 
 TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
   const BodyModel m = loadBodyModel(std::string(MOCAP_SOURCE_DIR) + "/tracker/models/human.yaml");
+  EXPECT_TRUE(m.person);
+  EXPECT_FALSE(builtinHandModel().person);
+  EXPECT_FALSE(parseBodyModel(kTwoSegments, "arm.yaml").person);
   EXPECT_EQ(m.dofs.size(), 31u);
   EXPECT_EQ(m.points.size(), 19u);
   EXPECT_EQ(m.gait_dofs.size(), 17u);
@@ -128,6 +133,7 @@ TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
 void expectSameModel(const BodyModel& a, const BodyModel& b) {
   constexpr double kTolerance = 1e-12;  // degrees and back may move the last bit of an angle
   EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.person, b.person);
   EXPECT_EQ(a.gait_dofs, b.gait_dofs);
   ASSERT_EQ(a.segments.size(), b.segments.size());
   for (std::size_t s = 0; s < a.segments.size(); ++s) {
