@@ -183,11 +183,16 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (!config.trace_path.empty()) {
     trace.open(config.trace_path);
     if (!trace) throw std::runtime_error("--trace: cannot write '" + config.trace_path + "'");
-    trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,root_yaw_error_deg\n";
+    trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,heading_error_deg\n";
     scorer =
         std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
   }
-  const int root_yaw = model.dofIndex("root_yaw");
+  // Heading: the direction of the hip axis (right hip to left hip) on the ground plane.
+  const int l_hip = model.pointIndex("l_hip"), r_hip = model.pointIndex("r_hip");
+  auto heading = [&](const std::vector<Eigen::Vector3d>& points) {
+    const Eigen::Vector3d axis = points[l_hip] - points[r_hip];
+    return std::atan2(axis.y(), axis.x());
+  };
   for (int f = 0; f < frames; ++f) {
     const bool realistic = config.noise == "realistic";
     // A limb missed by segmentation in one camera for 5 frames out of every 50.
@@ -226,7 +231,10 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       trace << f << ',' << frame_error.back() << ','
             << logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0)) << ','
             << logLikelihood(options.likelihood, scorer->evaluate(estimate.q, masks, 0)) << ','
-            << (root_yaw >= 0 ? (estimate.q[root_yaw] - truth[f][root_yaw]) * 180 / M_PI : 0.0)
+            << (l_hip >= 0 && r_hip >= 0
+                    ? std::remainder(heading(tracked_points) - heading(true_points), 2 * M_PI) *
+                          180 / M_PI
+                    : 0.0)
             << '\n';
     }
   }
@@ -304,7 +312,7 @@ int runHumanCommand(int argc, char** argv) {
                   {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
                    "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
                    "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
-                   "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts"},
+                   "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts", "refine-root-prior"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -335,6 +343,8 @@ int runHumanCommand(int argc, char** argv) {
       args.real("refine-restarts", config.filter.refine_restart_share, 0.0, 1.0);
   config.filter.refine_hold =
       args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
+  config.filter.refine_root_prior =
+      args.real("refine-root-prior", config.filter.refine_root_prior, 0.0, 1e6);
   const std::string estimate = args.text("estimate", "mean");
   if (estimate != "mean" && estimate != "best")
     throw std::invalid_argument("--estimate: expected mean or best, got '" + estimate + "'");
