@@ -102,8 +102,6 @@ class FactoredFilter final : public PoseFilter {
     samples_ = options.samples;
     if (options.refine_share < 0 || options.refine_share >= 1)
       throw std::invalid_argument("factored filter: refine share must be in [0, 1)");
-    if (options.refine_root_prior < 0)
-      throw std::invalid_argument("factored filter: refine root prior must be >= 0");
     if (samples_ <= 0) {
       const double budget = options.evaluations_per_frame * (1 - options.refine_share) -
                             observation_layers * options.keep;
@@ -125,13 +123,6 @@ class FactoredFilter final : public PoseFilter {
       refine_hold_steps_.resize(refine_dofs_.size());
       if (options.refine_hold) findHeldChildren();
       if (options.refine_restart_share > 0) findRestartLimbs();
-      if (options.refine_root_prior > 0) {
-        for (int d : refine_dofs_) {
-          const Dof& dof = model_.dofs[d];
-          if (model_.segments[dof.segment].parent < 0 && dof.type == DofType::kRotation)
-            prior_dofs_.push_back(d);
-        }
-      }
       // Each draw is followed by up to 3 poses of local search.
       restart_draws_ = static_cast<int>(
           std::lround(options.refine_restart_share * refine_evaluations_ / 4));
@@ -162,7 +153,6 @@ class FactoredFilter final : public PoseFilter {
     // One particle: the first layer spreads the whole budget over it.
     particles_.assign(1, Particle{q0, 0.0, std::vector<int>(model_.segments.size(), -1)});
     clampToLimits(model_, particles_[0].q);
-    previous_estimate_ = particles_[0].q;
   }
 
   FrameEstimate step(const std::vector<SilhouetteMask>& masks) override {
@@ -477,7 +467,7 @@ class FactoredFilter final : public PoseFilter {
   void refine(const std::vector<SilhouetteMask>& masks, FrameEstimate& estimate) {
     Eigen::VectorXd& q = particles_[0].q;
     const long renders_before = refiner_->renders();
-    double best = logLikelihood(options_.likelihood, refiner_->reset(q, masks)) - rootPrior(q);
+    double best = logLikelihood(options_.likelihood, refiner_->reset(q, masks));
     int budget = refine_evaluations_ - 1;
     for (std::size_t i = 0; i < refine_dofs_.size(); ++i) {
       refine_steps_[i] = options_.refine_step * model_.dofs[refine_dofs_[i]].max_speed;
@@ -512,7 +502,7 @@ class FactoredFilter final : public PoseFilter {
   // current pose, `at` and `value`; otherwise the evaluator goes back to `at`.
   bool tryPose(const Eigen::VectorXd& pose, Eigen::VectorXd& at, double& value, int& budget) {
     --budget;
-    const double score = logLikelihood(options_.likelihood, refiner_->trial(pose)) - rootPrior(pose);
+    const double score = logLikelihood(options_.likelihood, refiner_->trial(pose));
     if (score <= value) {
       refiner_->reject();
       return false;
@@ -618,7 +608,7 @@ class FactoredFilter final : public PoseFilter {
     const RestartLimb& limb = restart_limbs_[restart_frame_++ % restart_limbs_.size()];
     const auto evaluate = [&](const Eigen::VectorXd& pose) {
       --budget;
-      return logLikelihood(options_.likelihood, refiner_->trial(pose)) - rootPrior(pose);
+      return logLikelihood(options_.likelihood, refiner_->trial(pose));
     };
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& local = restart_pose_;
@@ -685,17 +675,6 @@ class FactoredFilter final : public PoseFilter {
     }
   }
 
-  // FilterOptions::refine_root_prior: the cost of `pose`'s root rotations' change from the
-  // previous estimate.
-  double rootPrior(const Eigen::VectorXd& pose) const {
-    double sum = 0;
-    for (int d : prior_dofs_) {
-      const double x = (pose[d] - previous_estimate_[d]) / model_.dofs[d].max_speed;
-      sum += std::min(x * x, 1.0);
-    }
-    return options_.refine_root_prior * sum;
-  }
-
   void finishFrame(FrameEstimate& estimate) {
     std::vector<const Eigen::VectorXd*> qs;
     std::vector<double> lw;
@@ -706,7 +685,6 @@ class FactoredFilter final : public PoseFilter {
     weightedEstimate(qs, lw, estimate);
     // Kept sorted best first; a refined best particle is the estimate.
     if (options_.estimate_best || refiner_) estimate.q = particles_[0].q;
-    previous_estimate_ = estimate.q;
   }
 
   const BodyModel& model_;
@@ -745,8 +723,6 @@ class FactoredFilter final : public PoseFilter {
   Eigen::VectorXd restart_pose_;                // scratch of restartLimb()
   std::vector<double> restart_steps_;
   Eigen::VectorXd refine_trial_, refine_sweep_start_;  // scratch of refine()
-  std::vector<int> prior_dofs_;                 // FilterOptions::refine_root_prior: root rotations
-  Eigen::VectorXd previous_estimate_;           // the prior's reference
 };
 
 }  // namespace

@@ -65,10 +65,6 @@ struct FilterOptions {
   // if it beats the pose. A limb settled on the wrong part of the silhouette (one leg on the
   // other's) scores better than any pose a few steps away, so no local step leaves it. 0: off.
   double refine_restart_share = 0;
-  // factored, with a refinement: the weight of a motion prior on the root segment's rotations
-  // (the pelvis's heading, pitch and roll), in log-likelihood units per squared speed limit of
-  // change from the previous frame's estimate, capped at one speed limit per DOF. 0: off.
-  double refine_root_prior = 0;
   int annealing_layers = 5;       // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;
