@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 #include <yaml-cpp/yaml.h>
 
@@ -25,6 +26,19 @@ class Parser {
     if (node.IsDefined() && node.Mark().line >= 0) msg << ":" << node.Mark().line + 1;
     msg << ": " << path << ": " << reason;
     throw std::runtime_error(msg.str());
+  }
+
+  // A misspelt optional key would otherwise be ignored silently (a segment without its offset, a
+  // person without `kind`), so every map lists the keys it takes.
+  void onlyKeys(const YAML::Node& map, const std::string& path,
+                std::initializer_list<std::string_view> known) const {
+    for (const auto& entry : map) {
+      const std::string& key = entry.first.Scalar();
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      std::string list;
+      for (std::string_view k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+      fail(entry.first, path + "." + key, "unknown key (known: " + list + ")");
+    }
   }
 
   YAML::Node require(const YAML::Node& map, const std::string& key, const std::string& path) const {
@@ -72,12 +86,14 @@ class Parser {
     if (!node.IsMap()) fail(node, path, "expected a map with a 'type'");
     std::string type = text(require(node, "type", path), path + ".type");
     if (type == "cone" || type == "truncated_cone") {
+      onlyKeys(node, path, {"type", "axis", "length", "radius_start", "radius_end"});
       s.type = ShapeType::kTruncatedCone;
       s.axis = node["axis"] ? unitVec3(node["axis"], path + ".axis") : Eigen::Vector3d::UnitZ();
       s.length = positive(require(node, "length", path), path + ".length");
       s.radius_start = positive(require(node, "radius_start", path), path + ".radius_start");
       s.radius_end = positive(require(node, "radius_end", path), path + ".radius_end");
     } else if (type == "ellipsoid") {
+      onlyKeys(node, path, {"type", "center", "radii"});
       s.type = ShapeType::kEllipsoid;
       s.center = node["center"] ? vec3(node["center"], path + ".center") : Eigen::Vector3d::Zero();
       s.radii = vec3(require(node, "radii", path), path + ".radii");
@@ -91,6 +107,7 @@ class Parser {
   Dof dof(const YAML::Node& node, const std::string& path) const {
     Dof d;
     if (!node.IsMap()) fail(node, path, "expected a map");
+    onlyKeys(node, path, {"name", "type", "axis", "min", "max", "max_speed"});
     d.name = text(require(node, "name", path), path + ".name");
     std::string type = node["type"] ? text(node["type"], path + ".type") : "rotation";
     double unit = 1.0;
@@ -127,6 +144,7 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   }
   Parser p(source);
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
+  p.onlyKeys(root, "(top)", {"name", "kind", "gait_dofs", "segments"});
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
   if (root["kind"]) {
@@ -145,6 +163,7 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
     Segment seg;
     seg.name = p.text(p.require(n, "name", path), path + ".name");
     path = "segments[" + std::to_string(i) + "] (" + seg.name + ")";
+    p.onlyKeys(n, path, {"name", "parent", "offset", "dofs", "shape", "points"});
     if (model.segmentIndex(seg.name) >= 0) p.fail(n["name"], path + ".name", "duplicate segment");
     if (n["parent"] && !n["parent"].IsNull()) {
       std::string parent = p.text(n["parent"], path + ".parent");
@@ -175,6 +194,8 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
       if (!pts.IsSequence()) p.fail(pts, path + ".points", "expected a list");
       for (std::size_t k = 0; k < pts.size(); ++k) {
         std::string ppath = path + ".points[" + std::to_string(k) + "]";
+        if (!pts[k].IsMap()) p.fail(pts[k], ppath, "expected a map");
+        p.onlyKeys(pts[k], ppath, {"name", "at"});
         BodyPoint bp;
         bp.name = p.text(p.require(pts[k], "name", ppath), ppath + ".name");
         if (model.pointIndex(bp.name) >= 0) p.fail(pts[k], ppath + ".name", "duplicate point");

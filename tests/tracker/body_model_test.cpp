@@ -69,30 +69,35 @@ std::string errorOf(const std::string& yaml) {
 }
 
 TEST(BodyModel, ErrorsNameTheFileLineAndField) {
-  std::string bad = kTwoSegments;
-  bad.replace(bad.find("max: 90"), 7, "max: ninety");
-  EXPECT_THAT(errorOf(bad), HasSubstr("bad.yaml:6: segments[0] (upper).dofs[0].max: expected a number, got 'ninety'"));
-
-  bad = kTwoSegments;
-  bad.replace(bad.find("parent: upper"), 13, "parent: nobody");
-  EXPECT_THAT(errorOf(bad), HasSubstr("segments[1] (lower).parent: unknown segment 'nobody'"));
-
-  bad = kTwoSegments;
-  bad.replace(bad.find("length: 0.3, "), 13, "");
-  EXPECT_THAT(errorOf(bad), HasSubstr("segments[0] (upper).shape.length: missing"));
-
-  bad = kTwoSegments;
-  bad.replace(bad.find("type: cone"), 10, "type: cube");
-  EXPECT_THAT(errorOf(bad), HasSubstr("unknown shape 'cube'"));
-
-  bad = kTwoSegments;
-  bad.replace(bad.find("min: -90, max: 90"), 17, "min: 90, max: -90");
-  EXPECT_THAT(errorOf(bad), HasSubstr("(upper).dofs[0]: min is greater than max"));
-
+  // Each case edits the valid model in one place: the text replaced, its replacement, the error.
+  const struct {
+    const char* from;
+    const char* to;
+    const char* error;
+  } cases[] = {
+      {"max: 90", "max: ninety",
+       "bad.yaml:6: segments[0] (upper).dofs[0].max: expected a number, got 'ninety'"},
+      {"parent: upper", "parent: nobody", "segments[1] (lower).parent: unknown segment 'nobody'"},
+      {"length: 0.3, ", "", "segments[0] (upper).shape.length: missing"},
+      {"type: cone", "type: cube", "unknown shape 'cube'"},
+      {"min: -90, max: 90", "min: 90, max: -90", "(upper).dofs[0]: min is greater than max"},
+      {"name: arm", "name: arm\nkind: horse", "bad.yaml:3: kind: expected person or other, got 'horse'"},
+      // A misspelt optional key is named, not ignored.
+      {"name: arm", "name: arm\nkindd: person",
+       "bad.yaml:3: (top).kindd: unknown key (known: name, kind, gait_dofs, segments)"},
+      {"offset: [0, 0, 1]", "ofset: [0, 0, 1]", "bad.yaml:5: segments[0] (upper).ofset: unknown key"},
+      {"radius_end", "radius_ed", "segments[0] (upper).shape.radius_ed: unknown key"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.to);
+    std::string bad = kTwoSegments;
+    const std::size_t at = bad.find(c.from);
+    ASSERT_NE(at, std::string::npos);
+    bad.replace(at, std::string(c.from).size(), c.to);
+    EXPECT_THAT(errorOf(bad), HasSubstr(c.error));
+  }
   EXPECT_THAT(errorOf("segments: [ {name: a"), HasSubstr("bad.yaml:1: not valid YAML"));
   EXPECT_THAT(errorOf("name: x"), HasSubstr("(top).segments: missing"));
-  EXPECT_THAT(errorOf(std::string("kind: horse\n") + kTwoSegments),
-              HasSubstr("bad.yaml:1: kind: expected person or other, got 'horse'"));
 }
 
 TEST(BodyModel, MissingFileIsNamed) {
