@@ -174,7 +174,7 @@ class ConfigParser {
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
     onlyKeys(tracker, "tracker",
              {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
-              "refine", "refine_hold", "refine_restarts"});
+              "refine", "refine_hold", "refine_restarts", "refine_facing_prior"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -205,6 +205,9 @@ class ConfigParser {
     if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
     if (tracker["refine_restarts"])
       t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
+    if (tracker["refine_facing_prior"])
+      t.refine_facing_prior =
+          number(tracker["refine_facing_prior"], "tracker.refine_facing_prior", 0, 1e6);
   }
 
   ServerConfig parse(const YAML::Node& root) const {
@@ -357,6 +360,7 @@ TrackerSettings TrackerSettings::forPeople() {
   people.refine = 0.4;
   people.refine_hold = true;
   people.refine_restarts = 0.14;
+  people.refine_facing_prior = 16;
   return people;
 }
 
@@ -370,6 +374,7 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.refine_share = refine;
   options.refine_hold = refine_hold;
   options.refine_restart_share = refine_restarts;
+  options.refine_facing_prior = refine_facing_prior;
   return options;
 }
 
@@ -391,7 +396,8 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"lookahead", lookahead},
           {"refine", exact(refine)},
           {"refine_hold", refine_hold ? "true" : "false"},
-          {"refine_restarts", exact(refine_restarts)}};
+          {"refine_restarts", exact(refine_restarts)},
+          {"refine_facing_prior", exact(refine_facing_prior)}};
 }
 
 TrackerSettings replayTrackerSettings(const ServerConfig& config,

@@ -35,12 +35,14 @@ struct TrackerSettings {
   // factored only (FilterOptions): what a layer ranks its candidates by ("none" is the paper), the
   // share of the budget spent on the full-body refinement, whether the refinement also turns
   // segments with their ball-joint children held, and the share of the refinement spent on
-  // restarting a limb. For people, docs/human.md's defaults: body, 0.4, true, 0.14 (with inject:
+  // restarting a limb. For people, docs/human.md's defaults: body, 0.4, true, 0.14, facing prior 16
+  // (with inject:
   // segment, injection: 0.05, evaluations: 2000).
   std::string lookahead = "none";
   double refine = 0;
   bool refine_hold = false;
   double refine_restarts = 0;
+  double refine_facing_prior = 0;  // the pelvis faces where the legs do (FilterOptions); people: 16
 
   // The defaults when the tracked body is a person (body_model: builtin:human, or a scene_motion):
   // docs/human.md's options, the experiment's humanFilterDefaults() at 2000 evaluations (a test

@@ -144,7 +144,7 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   }
   Parser p(source);
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
-  p.onlyKeys(root, "(top)", {"name", "kind", "gait_dofs", "segments"});
+  p.onlyKeys(root, "(top)", {"name", "kind", "gait_dofs", "facing_twists", "segments"});
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
   if (root["kind"]) {
@@ -206,15 +206,25 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
     }
     model.segments.push_back(seg);
   }
-  if (YAML::Node gait = root["gait_dofs"]) {
-    if (!gait.IsSequence()) p.fail(gait, "gait_dofs", "expected a list of DOF names");
-    for (std::size_t k = 0; k < gait.size(); ++k) {
-      const std::string path = "gait_dofs[" + std::to_string(k) + "]";
-      std::string name = p.text(gait[k], path);
-      if (model.dofIndex(name) < 0) p.fail(gait[k], path, "unknown DOF '" + name + "'");
-      model.gait_dofs.push_back(name);
+  // A list of names of the model's DOFs.
+  const auto dofNames = [&](const char* field, bool rotations_only) {
+    std::vector<std::string> names;
+    const YAML::Node list = root[field];
+    if (!list) return names;
+    if (!list.IsSequence()) p.fail(list, field, "expected a list of DOF names");
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      const std::string path = std::string(field) + "[" + std::to_string(k) + "]";
+      std::string name = p.text(list[k], path);
+      const int d = model.dofIndex(name);
+      if (d < 0) p.fail(list[k], path, "unknown DOF '" + name + "'");
+      if (rotations_only && model.dofs[d].type != DofType::kRotation)
+        p.fail(list[k], path, "'" + name + "' is not a rotation");
+      names.push_back(name);
     }
-  }
+    return names;
+  };
+  model.gait_dofs = dofNames("gait_dofs", false);
+  model.facing_twists = dofNames("facing_twists", true);
   return model;
 }
 
@@ -250,6 +260,9 @@ std::string formatBodyModel(const BodyModel& model) {
   if (model.person) out << YAML::Key << "kind" << YAML::Value << "person";
   if (!model.gait_dofs.empty()) {
     out << YAML::Key << "gait_dofs" << YAML::Value << YAML::Flow << model.gait_dofs;
+  }
+  if (!model.facing_twists.empty()) {
+    out << YAML::Key << "facing_twists" << YAML::Value << YAML::Flow << model.facing_twists;
   }
   out << YAML::Key << "segments" << YAML::Value << YAML::BeginSeq;
   for (std::size_t s = 0; s < model.segments.size(); ++s) {

@@ -61,6 +61,11 @@ class BodyModel {
   std::vector<Dof> dofs;          // in segment order: the DBN's hidden-variable order
   std::vector<BodyPoint> points;
   std::vector<std::string> gait_dofs;  // optional subset: the DOFs gait is based on (paper §8.4)
+  // Optional: the twists that turn the legs about the body's long axis at the hips (the human's
+  // r_hip_twist, l_hip_twist). Their mean, each signed by its axis against the first's, is how far
+  // the pelvis faces away from the legs; the tracker's facing prior keeps it small
+  // (FilterOptions::refine_facing_prior).
+  std::vector<std::string> facing_twists;
   // `kind: person` in the file: the body is a person's, so a daemon tracking it starts from the
   // tracker settings measured on people (TrackerSettings::forPeople) rather than the hand's.
   bool person = false;

@@ -102,6 +102,8 @@ class FactoredFilter final : public PoseFilter {
     samples_ = options.samples;
     if (options.refine_share < 0 || options.refine_share >= 1)
       throw std::invalid_argument("factored filter: refine share must be in [0, 1)");
+    if (options.refine_facing_prior < 0)
+      throw std::invalid_argument("factored filter: facing prior must be >= 0");
     if (samples_ <= 0) {
       const double budget = options.evaluations_per_frame * (1 - options.refine_share) -
                             observation_layers * options.keep;
@@ -123,6 +125,7 @@ class FactoredFilter final : public PoseFilter {
       refine_hold_steps_.resize(refine_dofs_.size());
       if (options.refine_hold) findHeldChildren();
       if (options.refine_restart_share > 0) findRestartLimbs();
+      if (options.refine_facing_prior > 0) findFacingTwists();
       // Each draw is followed by up to 3 poses of local search.
       restart_draws_ = static_cast<int>(
           std::lround(options.refine_restart_share * refine_evaluations_ / 4));
@@ -467,7 +470,7 @@ class FactoredFilter final : public PoseFilter {
   void refine(const std::vector<SilhouetteMask>& masks, FrameEstimate& estimate) {
     Eigen::VectorXd& q = particles_[0].q;
     const long renders_before = refiner_->renders();
-    double best = logLikelihood(options_.likelihood, refiner_->reset(q, masks));
+    double best = logLikelihood(options_.likelihood, refiner_->reset(q, masks)) - facingPrior(q);
     int budget = refine_evaluations_ - 1;
     for (std::size_t i = 0; i < refine_dofs_.size(); ++i) {
       refine_steps_[i] = options_.refine_step * model_.dofs[refine_dofs_[i]].max_speed;
@@ -502,7 +505,8 @@ class FactoredFilter final : public PoseFilter {
   // current pose, `at` and `value`; otherwise the evaluator goes back to `at`.
   bool tryPose(const Eigen::VectorXd& pose, Eigen::VectorXd& at, double& value, int& budget) {
     --budget;
-    const double score = logLikelihood(options_.likelihood, refiner_->trial(pose));
+    const double score =
+        logLikelihood(options_.likelihood, refiner_->trial(pose)) - facingPrior(pose);
     if (score <= value) {
       refiner_->reject();
       return false;
@@ -608,7 +612,7 @@ class FactoredFilter final : public PoseFilter {
     const RestartLimb& limb = restart_limbs_[restart_frame_++ % restart_limbs_.size()];
     const auto evaluate = [&](const Eigen::VectorXd& pose) {
       --budget;
-      return logLikelihood(options_.likelihood, refiner_->trial(pose));
+      return logLikelihood(options_.likelihood, refiner_->trial(pose)) - facingPrior(pose);
     };
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& local = restart_pose_;
@@ -675,6 +679,26 @@ class FactoredFilter final : public PoseFilter {
     }
   }
 
+  // FilterOptions::refine_facing_prior: the model's facing twists, each with the sign of its axis
+  // against the first's (mirrored legs twist about opposite axes).
+  void findFacingTwists() {
+    for (const std::string& name : model_.facing_twists) {
+      const int d = model_.dofIndex(name);
+      facing_twists_.push_back(
+          {d, model_.dofs[d].axis.dot(model_.dofs[model_.dofIndex(model_.facing_twists[0])].axis)});
+    }
+  }
+
+  // How far `pose`'s pelvis faces from its legs, as a cost (0 without the prior).
+  double facingPrior(const Eigen::VectorXd& pose) const {
+    if (facing_twists_.empty()) return 0;
+    double sum = 0;
+    for (const auto& [d, sign] : facing_twists_) sum += sign * pose[d];
+    const double c = sum / static_cast<double>(facing_twists_.size()) /
+                     model_.dofs[facing_twists_[0].first].max_speed;
+    return options_.refine_facing_prior * c * c;
+  }
+
   void finishFrame(FrameEstimate& estimate) {
     std::vector<const Eigen::VectorXd*> qs;
     std::vector<double> lw;
@@ -723,6 +747,7 @@ class FactoredFilter final : public PoseFilter {
   Eigen::VectorXd restart_pose_;                // scratch of restartLimb()
   std::vector<double> restart_steps_;
   Eigen::VectorXd refine_trial_, refine_sweep_start_;  // scratch of refine()
+  std::vector<std::pair<int, double>> facing_twists_;  // DOF and sign (FilterOptions::refine_facing_prior)
 };
 
 }  // namespace

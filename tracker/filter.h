@@ -65,6 +65,14 @@ struct FilterOptions {
   // if it beats the pose. A limb settled on the wrong part of the silhouette (one leg on the
   // other's) scores better than any pose a few steps away, so no local step leaves it. 0: off.
   double refine_restart_share = 0;
+  // factored, with a refinement: the weight of a prior that the pelvis faces where the legs do,
+  // for a model that names its legs' twists (BodyModel::facing_twists): the refinement scores a
+  // pose by its log-likelihood minus W (c / s)^2, c the mean of those twists (each signed by its
+  // axis against the first's) and s the first's speed limit. Two silhouettes barely show which way
+  // the pelvis faces, and a pelvis turned the wrong way scores as well with the hips twisted back,
+  // so without it the heading drifts by tens of degrees over a walk. Unlike a prior on the
+  // heading's change, it does not hold back a subject who turns. 0: off.
+  double refine_facing_prior = 0;
   int annealing_layers = 5;       // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;

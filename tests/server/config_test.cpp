@@ -43,18 +43,20 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   const ServerConfig config = parseConfig(
       "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
       "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
-      " refine_hold: true, refine_restarts: 0.14}\n",
+      " refine_hold: true, refine_restarts: 0.14, refine_facing_prior: 16}\n",
       "test.yaml", ".");
   EXPECT_EQ(config.tracker.lookahead, "body");
   EXPECT_EQ(config.tracker.refine, 0.4);
   EXPECT_TRUE(config.tracker.refine_hold);
   EXPECT_EQ(config.tracker.refine_restarts, 0.14);
+  EXPECT_EQ(config.tracker.refine_facing_prior, 16);
   // Unset, they are the paper's filter.
   const ServerConfig plain = parseConfig(kDefaultConfigYaml, "default", ".");
   EXPECT_EQ(plain.tracker.lookahead, "none");
   EXPECT_EQ(plain.tracker.refine, 0);
   EXPECT_FALSE(plain.tracker.refine_hold);
   EXPECT_EQ(plain.tracker.refine_restarts, 0);
+  EXPECT_EQ(plain.tracker.refine_facing_prior, 0);
 }
 
 TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
@@ -67,6 +69,7 @@ TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   EXPECT_EQ(person.tracker.refine, 0.4);
   EXPECT_TRUE(person.tracker.refine_hold);
   EXPECT_EQ(person.tracker.refine_restarts, 0.14);
+  EXPECT_EQ(person.tracker.refine_facing_prior, 16);
 
   const ServerConfig tuned = parseConfig(
       cameras + "body_model: builtin:human\ntracker: {evaluations: 800, refine_hold: false}\n",
@@ -118,6 +121,7 @@ TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
   EXPECT_EQ(daemon.refine_share, experiment.refine_share);
   EXPECT_EQ(daemon.refine_hold, experiment.refine_hold);
   EXPECT_EQ(daemon.refine_restart_share, experiment.refine_restart_share);
+  EXPECT_EQ(daemon.refine_facing_prior, experiment.refine_facing_prior);
 }
 
 TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKeys) {
@@ -183,6 +187,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
+      {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},
       {cameras + "listen: nowhere\n", "test.yaml:3: listen:"},
       {cameras + "trackr: {}\n", "trackr: unknown key"},
       {"cameras:\n  - {driver: nosuch}\n", "cameras[0].driver: no driver 'nosuch'"},

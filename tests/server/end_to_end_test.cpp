@@ -292,13 +292,9 @@ TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
   config.body_model = "builtin:human";
   config.scene_motion = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
   // docs/human.md's options for people.
-  config.tracker.evaluations = 2000;
-  config.tracker.inject = "segment";
-  config.tracker.injection = 0.05;
-  config.tracker.lookahead = "body";
-  config.tracker.refine = 0.4;
-  config.tracker.refine_hold = true;
-  config.tracker.refine_restarts = 0.14;
+  const int threads = config.tracker.threads;
+  config.tracker = TrackerSettings::forPeople();
+  config.tracker.threads = threads;
   std::unique_ptr<MocapServer> server = startServer(config);
   ASSERT_TRUE(server);
   auto stub = test::connect(server->port());

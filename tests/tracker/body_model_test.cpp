@@ -82,9 +82,12 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       {"type: cone", "type: cube", "unknown shape 'cube'"},
       {"min: -90, max: 90", "min: 90, max: -90", "(upper).dofs[0]: min is greater than max"},
       {"name: arm", "name: arm\nkind: horse", "bad.yaml:3: kind: expected person or other, got 'horse'"},
+      {"name: arm", "name: arm\nfacing_twists: [shoulder, slide]",
+       "bad.yaml:3: facing_twists[1]: 'slide' is not a rotation"},
+      {"name: arm", "name: arm\nfacing_twists: [elbow]", "facing_twists[0]: unknown DOF 'elbow'"},
       // A misspelt optional key is named, not ignored.
       {"name: arm", "name: arm\nkindd: person",
-       "bad.yaml:3: (top).kindd: unknown key (known: name, kind, gait_dofs, segments)"},
+       "bad.yaml:3: (top).kindd: unknown key (known: name, kind, gait_dofs, facing_twists, segments)"},
       {"offset: [0, 0, 1]", "ofset: [0, 0, 1]", "bad.yaml:5: segments[0] (upper).ofset: unknown key"},
       {"radius_end", "radius_ed", "segments[0] (upper).shape.radius_ed: unknown key"},
   };
@@ -116,6 +119,7 @@ TEST(BodyModel, MissingFileIsNamed) {
 TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
   const BodyModel m = loadBodyModel(std::string(MOCAP_SOURCE_DIR) + "/tracker/models/human.yaml");
   EXPECT_TRUE(m.person);
+  EXPECT_EQ(m.facing_twists, (std::vector<std::string>{"r_hip_twist", "l_hip_twist"}));
   EXPECT_FALSE(builtinHandModel().person);
   EXPECT_FALSE(parseBodyModel(kTwoSegments, "arm.yaml").person);
   EXPECT_EQ(m.dofs.size(), 31u);
@@ -140,6 +144,7 @@ void expectSameModel(const BodyModel& a, const BodyModel& b) {
   EXPECT_EQ(a.name, b.name);
   EXPECT_EQ(a.person, b.person);
   EXPECT_EQ(a.gait_dofs, b.gait_dofs);
+  EXPECT_EQ(a.facing_twists, b.facing_twists);
   ASSERT_EQ(a.segments.size(), b.segments.size());
   for (std::size_t s = 0; s < a.segments.size(); ++s) {
     const Segment &x = a.segments[s], &y = b.segments[s];

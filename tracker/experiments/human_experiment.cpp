@@ -124,6 +124,7 @@ FilterOptions humanFilterDefaults() {
   options.refine_share = 0.4;
   options.refine_hold = true;
   options.refine_restart_share = 0.14;
+  options.refine_facing_prior = 16;
   return options;
 }
 
@@ -312,7 +313,7 @@ int runHumanCommand(int argc, char** argv) {
                   {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
                    "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
                    "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
-                   "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts"},
+                   "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts", "refine-facing-prior"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -343,6 +344,8 @@ int runHumanCommand(int argc, char** argv) {
       args.real("refine-restarts", config.filter.refine_restart_share, 0.0, 1.0);
   config.filter.refine_hold =
       args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
+  config.filter.refine_facing_prior =
+      args.real("refine-facing-prior", config.filter.refine_facing_prior, 0.0, 1e6);
   const std::string estimate = args.text("estimate", "mean");
   if (estimate != "mean" && estimate != "best")
     throw std::invalid_argument("--estimate: expected mean or best, got '" + estimate + "'");
