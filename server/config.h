@@ -34,17 +34,18 @@ struct TrackerSettings {
   uint64_t seed = 1;                // the filters are deterministic for a seed
   // factored only (FilterOptions): what a layer ranks its candidates by ("none" is the paper), the
   // share of the budget spent on the full-body refinement, whether the refinement also turns
-  // segments with their ball-joint children held, and the share of the refinement spent on
-  // restarting a limb. For people, docs/human.md's defaults: body, 0.4, true, 0.14, facing prior 16
-  // (with inject:
-  // segment, injection: 0.05, evaluations: 2000).
+  // segments with their ball-joint children held, the share of the refinement spent on
+  // restarting a limb, and the weight of the prior that the pelvis faces where the legs do. For
+  // people, docs/human.md's defaults: body, 0.4, true, 0.14, 16 (with inject: segment,
+  // injection: 0.05, evaluations: 2000).
   std::string lookahead = "none";
   double refine = 0;
   bool refine_hold = false;
   double refine_restarts = 0;
-  double refine_facing_prior = 0;  // the pelvis faces where the legs do (FilterOptions); people: 16
+  double refine_facing_prior = 0;
 
-  // The defaults when the tracked body is a person (body_model: builtin:human, or a scene_motion):
+  // The defaults when the tracked body is a person (body_model: builtin:human, a model file with
+  // `kind: person`, or a scene_motion):
   // docs/human.md's options, the experiment's humanFilterDefaults() at 2000 evaluations (a test
   // keeps the two equal). The defaults above are the paper's hand setup. Keys under `tracker:`
   // override either.

@@ -684,8 +684,10 @@ class FactoredFilter final : public PoseFilter {
   void findFacingTwists() {
     for (const std::string& name : model_.facing_twists) {
       const int d = model_.dofIndex(name);
-      facing_twists_.push_back(
-          {d, model_.dofs[d].axis.dot(model_.dofs[model_.dofIndex(model_.facing_twists[0])].axis)});
+      const double sign = facing_twists_.empty()
+                              ? 1.0
+                              : model_.dofs[d].axis.dot(model_.dofs[facing_twists_[0].first].axis);
+      facing_twists_.push_back({d, sign});
     }
   }
 
@@ -747,7 +749,8 @@ class FactoredFilter final : public PoseFilter {
   Eigen::VectorXd restart_pose_;                // scratch of restartLimb()
   std::vector<double> restart_steps_;
   Eigen::VectorXd refine_trial_, refine_sweep_start_;  // scratch of refine()
-  std::vector<std::pair<int, double>> facing_twists_;  // DOF and sign (FilterOptions::refine_facing_prior)
+  // FilterOptions::refine_facing_prior: each facing twist's DOF and sign.
+  std::vector<std::pair<int, double>> facing_twists_;
 };
 
 }  // namespace

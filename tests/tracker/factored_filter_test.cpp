@@ -14,6 +14,7 @@ namespace mocap {
 namespace {
 
 using testing_support::HandScene;
+using testing_support::silhouettes;
 
 TEST(FactoredFilter, RecoversAStaticPoseFromAPerturbedStart) {
   HandScene scene;
@@ -196,9 +197,7 @@ segments:
   Eigen::VectorXd truth(2), start(2);
   truth << 100 * M_PI / 180, 60 * M_PI / 180;
   start << 0, 0;
-  SceneRenderer renderer(model, rig);
-  std::vector<SilhouetteMask> masks;
-  for (const cv::Mat& image : renderer.renderSilhouettes(truth)) masks.emplace_back(image);
+  const std::vector<SilhouetteMask> masks = silhouettes(model, rig, truth);
 
   // Distance (metres) of the hand at pose q from the true hand.
   auto handError = [&](const Eigen::VectorXd& q) {
@@ -272,9 +271,6 @@ Eigen::VectorXd refineAlone(const BodyModel& model, const Rig& rig,
   return e.q;
 }
 
-// A pelvis turned the wrong way with its legs twisted back to point where the true legs point (what
-// a 2-camera track of a walk ends in). Turning the pelvis alone swings the legs off their
-// silhouettes, and no leg angle moves the pelvis; turning it with the legs held does.
 // The start of a track that went wrong from `truth` (the pelvis's yaw, then each leg's three
 // angles, segments 1 and 2): the pelvis turned 40 degrees, each leg's angles solved so it points
 // as in truth.
@@ -306,14 +302,9 @@ Eigen::VectorXd turnedPelvis(const BodyModel& model, const Eigen::VectorXd& trut
   return start;
 }
 
-std::vector<SilhouetteMask> silhouettes(const BodyModel& model, const Rig& rig,
-                                        const Eigen::VectorXd& q) {
-  SceneRenderer renderer(model, rig);
-  std::vector<SilhouetteMask> masks;
-  for (const cv::Mat& image : renderer.renderSilhouettes(q)) masks.emplace_back(image);
-  return masks;
-}
-
+// A pelvis turned the wrong way with its legs twisted back to point where the true legs point (what
+// a 2-camera track of a walk ends in). Turning the pelvis alone swings the legs off their
+// silhouettes, and no leg angle moves the pelvis; turning it with the legs held does.
 TEST(FactoredFilter, RefinementHoldingTheChildrenUndoesATurnedPelvis) {
   const BodyModel model = pelvisAndLegs();
   const Rig rig = twoCameras(Eigen::Vector3d(0, 0, -0.3), -0.2);
@@ -405,9 +396,7 @@ TEST(FactoredFilter, RefinementRestartsRecoverALimbFarFromItsSilhouette) {
   Eigen::VectorXd truth = Eigen::VectorXd::Zero(7), start = truth;
   truth[1] = 70 * deg;
   start[1] = -60 * deg;
-  SceneRenderer renderer(model, rig);
-  std::vector<SilhouetteMask> masks;
-  for (const cv::Mat& image : renderer.renderSilhouettes(truth)) masks.emplace_back(image);
+  const std::vector<SilhouetteMask> masks = silhouettes(model, rig, truth);
   KinematicsData kinematics(model);
   const auto footError = [&](const Eigen::VectorXd& q) {
     forwardKinematics(model, kinematics, q);

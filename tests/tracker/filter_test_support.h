@@ -15,16 +15,20 @@
 
 namespace mocap::testing_support {
 
+// The silhouettes of `model` at pose `q` in every camera of `rig`, as the filters take them.
+inline std::vector<SilhouetteMask> silhouettes(const BodyModel& model, const Rig& rig,
+                                               const Eigen::VectorXd& q) {
+  SceneRenderer renderer(model, rig);
+  std::vector<SilhouetteMask> out;
+  for (const cv::Mat& image : renderer.renderSilhouettes(q)) out.emplace_back(image);
+  return out;
+}
+
 struct HandScene {
   BodyModel model = builtinHandModel();
   Rig rig = handRig(3, 390, 290);
 
-  std::vector<SilhouetteMask> masks(const Eigen::VectorXd& q) {
-    SceneRenderer renderer(model, rig);
-    std::vector<SilhouetteMask> out;
-    for (const cv::Mat& image : renderer.renderSilhouettes(q)) out.emplace_back(image);
-    return out;
-  }
+  std::vector<SilhouetteMask> masks(const Eigen::VectorXd& q) { return silhouettes(model, rig, q); }
 
   // Mean distance (metres) between the model points at two poses.
   double pointError(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {

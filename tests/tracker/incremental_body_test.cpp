@@ -27,18 +27,13 @@ void expectSameCounts(const PixelCounts& a, const PixelCounts& b, const std::str
   EXPECT_EQ(a.area, b.area) << what;
 }
 
-std::vector<SilhouetteMask> render(const BodyModel& model, const Rig& rig, const Eigen::VectorXd& q) {
-  SceneRenderer renderer(model, rig);
-  std::vector<SilhouetteMask> out;
-  for (const cv::Mat& image : renderer.renderSilhouettes(q)) out.emplace_back(image);
-  return out;
-}
+using testing_support::silhouettes;
 
 // Random trials from `start` against the silhouettes of `truth`; steps of up to `speeds` speed
 // limits, so footprints move by a few pixels to many.
 void checkRandomTrials(const BodyModel& model, const Rig& rig, const Eigen::VectorXd& truth,
                        const Eigen::VectorXd& start, int trials, unsigned seed, double speeds) {
-  const auto masks = render(model, rig, truth);
+  const auto masks = silhouettes(model, rig, truth);
   FullBodyEvaluator full(model, rig, LikelihoodParams().points_per_circle, 1);
   IncrementalBodyEvaluator incremental(model, rig, LikelihoodParams().points_per_circle);
   expectSameCounts(incremental.reset(start, masks), full.evaluate(start, masks, 0), "reset");

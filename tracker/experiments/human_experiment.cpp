@@ -313,7 +313,8 @@ int runHumanCommand(int argc, char** argv) {
                   {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
                    "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
                    "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
-                   "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts", "refine-facing-prior"},
+                   "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts",
+                   "refine-facing-prior"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
