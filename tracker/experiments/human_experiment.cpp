@@ -114,6 +114,23 @@ std::vector<Limb> limbsOf(const BodyModel& model) {
   return limbs;
 }
 
+// The legs' error with the estimate's left leg scored against the truth's right leg and the other
+// way round: well under the legs' own error when the tracker swapped them, a silhouette ambiguity.
+double legsSwappedError(const std::vector<Limb>& limbs, const std::vector<Eigen::Vector3d>& truth,
+                        const std::vector<Eigen::Vector3d>& estimate) {
+  const Limb* legs[2] = {nullptr, nullptr};
+  for (const Limb& limb : limbs) {
+    if (std::string(limb.name) == "left_leg") legs[0] = &limb;
+    if (std::string(limb.name) == "right_leg") legs[1] = &limb;
+  }
+  if (!legs[0] || !legs[1] || legs[0]->points.size() != legs[1]->points.size()) return 0;
+  double sum = 0;
+  for (int side = 0; side < 2; ++side)
+    for (std::size_t i = 0; i < legs[side]->points.size(); ++i)
+      sum += 1000 * (estimate[legs[side]->points[i]] - truth[legs[1 - side]->points[i]]).norm();
+  return sum / (2 * legs[0]->points.size());
+}
+
 }  // namespace
 
 FilterOptions humanFilterDefaults() {
@@ -184,7 +201,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (!config.trace_path.empty()) {
     trace.open(config.trace_path);
     if (!trace) throw std::runtime_error("--trace: cannot write '" + config.trace_path + "'");
-    trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,heading_error_deg\n";
+    trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,heading_error_deg";
+    for (const Limb& limb : limbs) trace << ',' << limb.name << "_mm";
+    trace << ",legs_swapped_mm\n";
     scorer =
         std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
   }
@@ -235,8 +254,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
             << (l_hip >= 0 && r_hip >= 0
                     ? std::remainder(heading(tracked_points) - heading(true_points), 2 * M_PI) *
                           180 / M_PI
-                    : 0.0)
-            << '\n';
+                    : 0.0);
+      for (const auto& error : limb_error) trace << ',' << error.back();
+      trace << ',' << legsSwappedError(limbs, true_points, tracked_points) << '\n';
     }
   }
 

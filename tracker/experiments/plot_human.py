@@ -2,10 +2,10 @@
 """Plots MPJPE against particle evaluations, one line per method, from the JSON lines that
 experiment_table.py prints on stderr for the human experiment.
 
-  tracker/experiments/plot_human.py docs/human_mpjpe.png \\
+  tracker/experiments/plot_human.py [--methods M1,M2,...] docs/human_mpjpe.png \\
       "clean=walk_hop_clean.jsonl" "realistic, 2 cameras=walk_hop_realistic.jsonl"
 
-Each argument is TITLE=FILE. Within a file the rows are split into one panel per motion and per
+Each argument is TITLE=FILE; --methods keeps only the rows of those methods. Within a file the rows are split into one panel per motion and per
 camera count (when the grid varied them); the panel's title is TITLE plus those. Needs matplotlib
 (Debian: python3-matplotlib).
 """
@@ -18,7 +18,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 
-METHOD_STYLE = {"factored": "o-", "factored (no restarts)": "o--", "factored (no hold)": "o-.",
+METHOD_STYLE = {"factored": "o-", "factored (before the facing prior)": "o--",
+                "factored (no restarts)": "o--", "factored (no hold)": "o-.",
                 "factored (layers only)": "o:",
                 "condensation": "s--",
                 "annealed": "^:"}
@@ -39,12 +40,20 @@ def load_panels(title, path):
 
 
 def main():
-    if len(sys.argv) < 3 or any("=" not in a for a in sys.argv[2:]):
-        sys.exit("usage: plot_human.py OUT.png TITLE=FILE.jsonl [TITLE=FILE.jsonl ...]")
+    argv = sys.argv[1:]
+    methods = None
+    if argv[:1] == ["--methods"] and len(argv) > 1:
+        methods = set(argv[1].split(","))
+        argv = argv[2:]
+    if len(argv) < 2 or any("=" not in a for a in argv[1:]):
+        sys.exit("usage: plot_human.py [--methods M1,M2,...] OUT.png TITLE=FILE.jsonl [TITLE=FILE.jsonl ...]")
     panels = {}
-    for arg in sys.argv[2:]:
+    for arg in argv[1:]:
         title, path = arg.split("=", 1)
-        panels.update(load_panels(title, path))
+        for key, rows in load_panels(title, path).items():
+            rows = [row for row in rows if methods is None or row["method"] in methods]
+            if rows:
+                panels[key] = rows
     if not panels:
         sys.exit("plot_human.py: no result rows in the given files")
     keys = sorted(panels, key=lambda k: (k[1], str(k[2]), k[0]))
@@ -78,7 +87,7 @@ def main():
     for ax in list(axes.flat)[len(keys):]:
         ax.axis("off")
     fig.tight_layout()
-    fig.savefig(sys.argv[1], dpi=90)
+    fig.savefig(argv[0], dpi=90)
 
 
 if __name__ == "__main__":
