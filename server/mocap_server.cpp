@@ -53,6 +53,11 @@ FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel*
 Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& config) {
   std::unique_ptr<MocapServer> server(new MocapServer(config));
   PipelineInputs inputs;
+  // A model's speed limits are per frame at its frame_rate; the tracker's frames come at the
+  // cameras' rate (the recorded rate in a replay), so the body is tracked rescaled to it.
+  const auto atCameraRate = [&server](double fps) {
+    if (server->model_) *server->model_ = atFrameRate(*server->model_, fps);
+  };
   try {
     if (config.body_model == "builtin:hand") {
       server->model_ = std::make_unique<BodyModel>(builtinHandModel());
@@ -63,6 +68,7 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
     }
     if (!config.calibration_file.empty())
       server->rig_ = std::make_unique<Rig>(loadRig(config.calibration_file));
+    if (!config.replay() && !config.cameras.empty()) atCameraRate(config.cameras.front().fps);
   } catch (const std::exception& e) {
     return Status::Error(e.what());
   }
@@ -117,6 +123,7 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
         server->model_ = std::make_unique<BodyModel>(builtinHandModel());
       }
     }
+    if (!inputs.cameras.empty()) atCameraRate(inputs.cameras.front().config.fps);
     // Tracked as it was live: the session's tracker settings, under the keys the configuration
     // sets itself. Sessions that store none take the configuration's.
     if (!session->trackerSettings().empty()) {
@@ -142,7 +149,10 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       Expected<std::shared_ptr<FakeScene>> scene = driver.scene();
       if (!scene.ok()) return Status::Error("fake scene: " + scene.error());
       std::shared_ptr<FakeScene> shared = scene.value();
-      if (!server->model_) server->model_ = std::make_unique<BodyModel>(shared->model());
+      if (!server->model_) {
+        server->model_ = std::make_unique<BodyModel>(shared->model());
+        atCameraRate(config.cameras.front().fps);
+      }
       if (!server->rig_) server->rig_ = std::make_unique<Rig>(shared->rig());
       for (const CameraConfig& camera_config : config.cameras) {
         Expected<std::unique_ptr<Camera>> opened = driver.open(camera_config);

@@ -144,7 +144,8 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   }
   Parser p(source);
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
-  p.onlyKeys(root, "(top)", {"name", "kind", "gait_dofs", "facing_twists", "segments"});
+  p.onlyKeys(root, "(top)",
+             {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "segments"});
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
   if (root["kind"]) {
@@ -153,6 +154,7 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
       p.fail(root["kind"], "kind", "expected person or other, got '" + kind + "'");
     model.person = kind == "person";
   }
+  if (root["frame_rate"]) model.frame_rate = p.positive(root["frame_rate"], "frame_rate");
   YAML::Node segs = p.require(root, "segments", "(top)");
   if (!segs.IsSequence() || segs.size() == 0) p.fail(segs, "segments", "expected a non-empty list");
 
@@ -228,6 +230,17 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   return model;
 }
 
+BodyModel atFrameRate(const BodyModel& model, double hz) {
+  if (!(hz > 0) || !std::isfinite(hz))
+    throw std::invalid_argument("frame rate must be a positive number of Hz, got " +
+                                std::to_string(hz));
+  BodyModel scaled = model;
+  if (hz == model.frame_rate) return scaled;
+  for (Dof& dof : scaled.dofs) dof.max_speed *= model.frame_rate / hz;
+  scaled.frame_rate = hz;
+  return scaled;
+}
+
 namespace {
 
 void emitVec3(YAML::Emitter& out, const Eigen::Vector3d& v) {
@@ -258,6 +271,7 @@ std::string formatBodyModel(const BodyModel& model) {
   out.SetDoublePrecision(17);  // enough digits to read back the same double
   out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << model.name;
   if (model.person) out << YAML::Key << "kind" << YAML::Value << "person";
+  out << YAML::Key << "frame_rate" << YAML::Value << model.frame_rate;
   if (!model.gait_dofs.empty()) {
     out << YAML::Key << "gait_dofs" << YAML::Value << YAML::Flow << model.gait_dofs;
   }

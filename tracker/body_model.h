@@ -69,6 +69,9 @@ class BodyModel {
   // `kind: person` in the file: the body is a person's, so a daemon tracking it starts from the
   // tracker settings measured on people (TrackerSettings::forPeople) rather than the hand's.
   bool person = false;
+  // The camera rate (Hz) the DOFs' max_speed values are per frame of: `frame_rate` in the file,
+  // 25 (the paper's rate) when absent. atFrameRate rescales a model to another rate.
+  double frame_rate = 25;
 
   int segmentIndex(const std::string& segment_name) const;  // -1 if absent
   int dofIndex(const std::string& dof_name) const;          // -1 if absent
@@ -83,6 +86,11 @@ class BodyModel {
 // Throws std::invalid_argument for an unknown name.
 BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& free_dofs,
                        const Eigen::VectorXd& pose);
+
+// A copy of `model` whose speed limits are per frame at `hz`: every max_speed scaled by
+// model.frame_rate / hz, so a body tracked at 50 Hz may move half as far per frame as at 25 Hz.
+// Throws std::invalid_argument unless hz is positive and finite.
+BodyModel atFrameRate(const BodyModel& model, double hz);
 
 // Parses a body model from YAML text. `source` names the file in error messages. Throws
 // std::runtime_error with "<source>:<line>: <field path>: <reason>" on any bad input.

@@ -15,6 +15,7 @@
 
 #include "drivers/builtin_drivers.h"
 #include "server/mocap_server.h"
+#include "tracker/builtin_models.h"
 #include "server/server_test_support.h"
 
 namespace mocap {
@@ -318,6 +319,27 @@ TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
   // experiment's 200-frame walk measures 33 mm; a lost body is 100 mm and more).
   std::nth_element(errors.begin(), errors.begin() + 25, errors.end());
   EXPECT_LT(errors[25], 50.0);
+}
+
+// Speed limits are per frame: cameras at 50 Hz give the tracker frames half as far apart in time,
+// so it tracks the body with half the per-frame limits of the model's 25 Hz, the hand the fake
+// scene brings as well as a configured person.
+TEST_F(EndToEndTest, TracksWithSpeedLimitsPerFrameAtTheCamerasRate) {
+  for (const std::string body : {"builtin:human", ""}) {
+    SCOPED_TRACE(body);
+    ServerConfig config = test::sceneConfig();
+    config.body_model = body;
+    for (CameraConfig& camera : config.cameras) camera.fps = 50;
+    Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+    ASSERT_TRUE(server.ok()) << server.error();
+    const BodyModel& tracked = server.value()->model();
+    const BodyModel file = body.empty() ? builtinHandModel() : builtinHumanModel();
+    EXPECT_EQ(file.frame_rate, 25);
+    EXPECT_EQ(tracked.frame_rate, 50);
+    ASSERT_EQ(tracked.dofs.size(), file.dofs.size());
+    for (std::size_t d = 0; d < file.dofs.size(); ++d)
+      EXPECT_DOUBLE_EQ(tracked.dofs[d].max_speed, file.dofs[d].max_speed / 2) << file.dofs[d].name;
+  }
 }
 
 TEST_F(EndToEndTest, ASceneMotionThatDoesNotLoadStopsTheStartUpNamingIt) {

@@ -87,7 +87,10 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       {"name: arm", "name: arm\nfacing_twists: [elbow]", "facing_twists[0]: unknown DOF 'elbow'"},
       // A misspelt optional key is named, not ignored.
       {"name: arm", "name: arm\nkindd: person",
-       "bad.yaml:3: (top).kindd: unknown key (known: name, kind, gait_dofs, facing_twists, segments)"},
+       "bad.yaml:3: (top).kindd: unknown key (known: name, kind, frame_rate, gait_dofs, "
+       "facing_twists, segments)"},
+      {"name: arm", "name: arm\nframe_rate: 0", "bad.yaml:3: frame_rate: must be positive, got 0"},
+      {"name: arm", "name: arm\nframe_rate: fast", "frame_rate: expected a number, got 'fast'"},
       {"offset: [0, 0, 1]", "ofset: [0, 0, 1]", "bad.yaml:5: segments[0] (upper).ofset: unknown key"},
       {"radius_end", "radius_ed", "segments[0] (upper).shape.radius_ed: unknown key"},
   };
@@ -139,10 +142,31 @@ TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
   EXPECT_THROW(freezeAllBut(m, {"no_such_dof"}, m.neutralPose()), std::invalid_argument);
 }
 
+TEST(BodyModel, SpeedLimitsArePerFrameAtTheModelsFrameRate) {
+  const BodyModel arm = parseBodyModel(kTwoSegments, "arm.yaml");
+  EXPECT_EQ(arm.frame_rate, 25);  // the paper's rate, when the file does not say
+  EXPECT_EQ(builtinHumanModel().frame_rate, 25);
+  EXPECT_EQ(parseBodyModel(std::string(kTwoSegments) + "frame_rate: 50\n", "arm.yaml").frame_rate, 50);
+
+  // At 50 Hz a frame lasts half as long, so each DOF may move half as far in one; rotations and
+  // translations alike, and nothing else changes.
+  const BodyModel fast = atFrameRate(arm, 50);
+  EXPECT_EQ(fast.frame_rate, 50);
+  EXPECT_NEAR(fast.dofs[0].max_speed, 5 * M_PI / 180, 1e-15);
+  EXPECT_NEAR(fast.dofs[1].max_speed, 0.005, 1e-15);
+  EXPECT_EQ(fast.dofs[0].max, arm.dofs[0].max);
+  EXPECT_EQ(fast.segments[0].shape.length, arm.segments[0].shape.length);
+  // Rescaling composes: 50 Hz then 12.5 Hz is 12.5 Hz from the file's 25.
+  EXPECT_NEAR(atFrameRate(fast, 12.5).dofs[0].max_speed, 20 * M_PI / 180, 1e-15);
+  EXPECT_THROW(atFrameRate(arm, 0), std::invalid_argument);
+  EXPECT_THROW(atFrameRate(arm, NAN), std::invalid_argument);
+}
+
 void expectSameModel(const BodyModel& a, const BodyModel& b) {
   constexpr double kTolerance = 1e-12;  // degrees and back may move the last bit of an angle
   EXPECT_EQ(a.name, b.name);
   EXPECT_EQ(a.person, b.person);
+  EXPECT_EQ(a.frame_rate, b.frame_rate);
   EXPECT_EQ(a.gait_dofs, b.gait_dofs);
   EXPECT_EQ(a.facing_twists, b.facing_twists);
   ASSERT_EQ(a.segments.size(), b.segments.size());
@@ -188,7 +212,7 @@ TEST(BodyModel, FormattedYamlReadsBackAsTheSameModel) {
   Eigen::VectorXd pose = human.neutralPose();
   pose[human.dofIndex("l_elbow_flex")] = 0.3;  // not a gait DOF: frozen at 0.3 (min == max)
   const BodyModel gait = freezeAllBut(human, human.gait_dofs, pose);
-  for (const BodyModel& model : {builtinHandModel(), human, gait,
+  for (const BodyModel& model : {builtinHandModel(), human, gait, atFrameRate(human, 30),
                                  parseBodyModel(kTwoSegments, "arm.yaml")}) {
     SCOPED_TRACE(model.name);
     expectSameModel(model, parseBodyModel(formatBodyModel(model), "formatted"));
