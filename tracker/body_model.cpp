@@ -221,6 +221,9 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
       if (d < 0) p.fail(list[k], path, "unknown DOF '" + name + "'");
       if (rotations_only && model.dofs[d].type != DofType::kRotation)
         p.fail(list[k], path, "'" + name + "' is not a rotation");
+      // Named twice, a twist would count twice in the facing prior's mean.
+      if (std::find(names.begin(), names.end(), name) != names.end())
+        p.fail(list[k], path, "'" + name + "' is listed twice");
       names.push_back(name);
     }
     return names;

@@ -85,6 +85,8 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       {"name: arm", "name: arm\nfacing_twists: [shoulder, slide]",
        "bad.yaml:3: facing_twists[1]: 'slide' is not a rotation"},
       {"name: arm", "name: arm\nfacing_twists: [elbow]", "facing_twists[0]: unknown DOF 'elbow'"},
+      {"name: arm", "name: arm\ngait_dofs: [shoulder, slide, shoulder]",
+       "bad.yaml:3: gait_dofs[2]: 'shoulder' is listed twice"},
       // A misspelt optional key is named, not ignored.
       {"name: arm", "name: arm\nkindd: person",
        "bad.yaml:3: (top).kindd: unknown key (known: name, kind, frame_rate, gait_dofs, "
