@@ -78,10 +78,11 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
     // person's proportions (docs/human.md).
     try {
       const Bvh bvh = loadBvh(config.scene_motion);
-      auto fitted = std::make_unique<BodyModel>(
-          fitModelToBvh(server->model_ ? *server->model_ : builtinHumanModel(), bvh.skeleton));
+      const double fps = config.cameras.front().fps;
+      auto fitted = std::make_unique<BodyModel>(fitModelToBvh(
+          server->model_ ? *server->model_ : atFrameRate(builtinHumanModel(), fps), bvh.skeleton));
       scene_motion = std::make_shared<const Motion>(
-          retargetBvh(*fitted, bvh.skeleton, bvh.motion, config.cameras.front().fps).motion);
+          retargetBvh(*fitted, bvh.skeleton, bvh.motion, fps).motion);
       server->model_ = std::move(fitted);
     } catch (const std::exception& e) {
       return Status::Error(config.source + ": scene_motion: " + e.what());

@@ -322,18 +322,21 @@ TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
 }
 
 // Speed limits are per frame: cameras at 50 Hz give the tracker frames half as far apart in time,
-// so it tracks the body with half the per-frame limits of the model's 25 Hz, the hand the fake
-// scene brings as well as a configured person.
+// so it tracks the body with half the per-frame limits of the model's 25 Hz: a configured person,
+// the hand the fake scene brings, and the person fitted to a scene motion.
 TEST_F(EndToEndTest, TracksWithSpeedLimitsPerFrameAtTheCamerasRate) {
-  for (const std::string body : {"builtin:human", ""}) {
-    SCOPED_TRACE(body);
+  const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
+  for (const auto& [body, motion] : {std::pair<std::string, std::string>{"builtin:human", ""},
+                                     {"", ""}, {"", walk}}) {
+    SCOPED_TRACE(body + " " + motion);
     ServerConfig config = test::sceneConfig();
     config.body_model = body;
+    config.scene_motion = motion;
     for (CameraConfig& camera : config.cameras) camera.fps = 50;
     Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
     ASSERT_TRUE(server.ok()) << server.error();
     const BodyModel& tracked = server.value()->model();
-    const BodyModel file = body.empty() ? builtinHandModel() : builtinHumanModel();
+    const BodyModel file = body.empty() && motion.empty() ? builtinHandModel() : builtinHumanModel();
     EXPECT_EQ(file.frame_rate, 25);
     EXPECT_EQ(tracked.frame_rate, 50);
     ASSERT_EQ(tracked.dofs.size(), file.dofs.size());
