@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <random>
 
 #include <opencv2/imgcodecs.hpp>
@@ -133,6 +134,15 @@ double legsSwappedError(const std::vector<Limb>& limbs, const std::vector<Eigen:
 
 }  // namespace
 
+std::string lostFrameCause(double left_leg, double right_leg, double worst_arm,
+                           double heading_error_deg, double legs_swapped) {
+  if (legs_swapped < 0.25 * (left_leg + right_leg)) return "legs_swapped";
+  if (std::abs(heading_error_deg) > 20) return "heading";
+  if (std::max(left_leg, right_leg) > 100) return "legs";
+  if (worst_arm > 100) return "arms";
+  return "other";
+}
+
 FilterOptions humanFilterDefaults() {
   FilterOptions options;
   options.lookahead = FilterOptions::Lookahead::kBody;
@@ -190,6 +200,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   std::vector<SilhouetteMask> masks(rig.size());
   std::vector<double> per_joint(model.points.size(), 0.0);
   std::vector<double> frame_error;
+  std::map<std::string, int> lost_causes = {
+      {"legs_swapped", 0}, {"heading", 0}, {"legs", 0}, {"arms", 0}, {"other", 0}};
+  int lost_truth_ahead = 0;  // lost frames whose truth scores over 20 units above the estimate
   const std::vector<Limb> limbs = limbsOf(model);
   std::vector<std::vector<double>> limb_error(limbs.size());  // per limb, per frame
   long evaluations = 0, renders = 0;
@@ -247,16 +260,28 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     }
     if (!config.overlay_dir.empty() && f % 10 == 0)
       writeOverlays(config.overlay_dir, f, masks, renderer, estimate.q);
+    const double heading_error =
+        l_hip >= 0 && r_hip >= 0
+            ? std::remainder(heading(tracked_points) - heading(true_points), 2 * M_PI) * 180 / M_PI
+            : 0.0;
+    const double legs_swapped = legsSwappedError(limbs, true_points, tracked_points);
+    const bool lost = frame_error.back() > 100.0;
+    if (lost) {
+      std::map<std::string, double> limb_mm;
+      for (std::size_t l = 0; l < limbs.size(); ++l) limb_mm[limbs[l].name] = limb_error[l].back();
+      ++lost_causes[lostFrameCause(limb_mm["left_leg"], limb_mm["right_leg"],
+                                   std::max(limb_mm["left_arm"], limb_mm["right_arm"]),
+                                   heading_error, legs_swapped)];
+    }
     if (scorer) {
-      trace << f << ',' << frame_error.back() << ','
-            << logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0)) << ','
-            << logLikelihood(options.likelihood, scorer->evaluate(estimate.q, masks, 0)) << ','
-            << (l_hip >= 0 && r_hip >= 0
-                    ? std::remainder(heading(tracked_points) - heading(true_points), 2 * M_PI) *
-                          180 / M_PI
-                    : 0.0);
+      const double truth_score = logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0));
+      const double estimate_score =
+          logLikelihood(options.likelihood, scorer->evaluate(estimate.q, masks, 0));
+      lost_truth_ahead += lost && truth_score > estimate_score + 20;
+      trace << f << ',' << frame_error.back() << ',' << truth_score << ',' << estimate_score << ','
+            << heading_error;
       for (const auto& error : limb_error) trace << ',' << error.back();
-      trace << ',' << legsSwappedError(limbs, true_points, tracked_points) << '\n';
+      trace << ',' << legs_swapped << '\n';
     }
   }
 
@@ -314,10 +339,14 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"limb_lost_frames", limb_lost},
       {"max_frame_mpjpe_mm", worst},
       {"lost_frames", lost},
+      {"lost_frame_causes", lost_causes},
       {"seconds_per_frame", tracking_seconds / frames},
       {"ground_truth_fit_residual_mm", residual_count ? residual / residual_count : 0.0},
   };
   if (config.reset_every > 0) out["reset_every"] = config.reset_every;
+  // With --trace, which scores the truth as well: lost frames that are a failure of the search
+  // (the truth scores higher) rather than an ambiguity of the silhouettes.
+  if (scorer) out["lost_frames_truth_ahead"] = lost_truth_ahead;
   if (config.start_offset != "none") {
     out["start_offset"] = config.start_offset;
     out["recovery_frames"] = recovery >= 0 ? nlohmann::json(recovery) : nlohmann::json();

@@ -29,9 +29,16 @@ void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera);
 // docs/human.md): look-ahead over the whole body, 5 % of the candidates injected with a segment's
 // angles at once, and 40 % of the budget on the full-body refinement, which also turns segments
 // with their ball-joint children held and restarts one limb per frame with 14 % of the refinement
-// (32 random draws at 2000 evaluations; walk seeds 1-6). The paper has no look-ahead, injects one
+// (32 random draws at 2000 evaluations; walk seeds 1-6), and scores poses with the facing prior
+// (weight 16; walk and hop seeds 7-24, checked on 61-96). The paper has no look-ahead, injects one
 // DOF into 2 % and does not refine.
 FilterOptions humanFilterDefaults();
+
+// What a lost frame (MPJPE over 100 mm) got wrong, the first that applies: "legs_swapped" (the
+// legs' error with left and right exchanged under half their mean error), "heading" (more than 20
+// degrees off), "legs" or "arms" (one over 100 mm off), else "other". Errors in mm per limb.
+std::string lostFrameCause(double left_leg, double right_leg, double worst_arm,
+                           double heading_error_deg, double legs_swapped);
 
 struct HumanExperimentConfig {
   std::string motion_path;          // BVH (CMU skeleton)

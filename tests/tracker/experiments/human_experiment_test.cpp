@@ -1,6 +1,9 @@
-// The human experiment's scoring: per-limb errors point at the limb that is wrong, --reset-every
-// restarts from the truth, and bad flags are refused with their names.
+// The human experiment's scoring: per-limb errors point at the limb that is wrong, lost frames are
+// counted by what went wrong, --reset-every restarts from the truth, and bad flags are refused with
+// their names.
 #include "tracker/experiments/human_experiment.h"
+
+#include <unistd.h>
 
 #include <filesystem>
 #include <string>
@@ -32,21 +35,55 @@ TEST(HumanExperiment, PerLimbErrorsPointAtTheMisplacedArm) {
   EXPECT_TRUE(out["arm_recovery_frames"].is_null());  // not back within the one frame
 }
 
-// --reset-every restarts the tracker from the truth of the frame before: a body 30 cm off at the
-// start is back in the next frame with it, and one frame of search does not bring it back.
-TEST(HumanExperiment, ResetEveryRestartsFromTheTruth) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+// Two frames of the walk, 2 cameras, the tracker started with the body 30 cm off.
+HumanExperimentConfig bodyOffTwoFrames() {
   HumanExperimentConfig config;
   config.motion_path = kWalk;
   config.frames = 2;
   config.cameras = 2;
   config.threads = 1;
   config.start_offset = "body30cm";
+  return config;
+}
+
+// --reset-every restarts the tracker from the truth of the frame before: a body 30 cm off at the
+// start is back in the next frame with it, and one frame of search does not bring it back.
+TEST(HumanExperiment, ResetEveryRestartsFromTheTruth) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config = bodyOffTwoFrames();
   EXPECT_TRUE(runHumanExperiment(config)["recovery_frames"].is_null());
   config.reset_every = 1;
   const nlohmann::json out = runHumanExperiment(config);
   EXPECT_EQ(out["recovery_frames"], 1) << out.dump();
   EXPECT_EQ(out["reset_every"], 1);
+}
+
+// A lost frame is put down to the first of: legs swapped, heading, a leg, an arm.
+TEST(HumanExperiment, LostFramesAreCountedByWhatWentWrongFirst) {
+  // left leg, right leg, worst arm (mm), heading error (degrees), legs swapped (mm)
+  EXPECT_EQ(lostFrameCause(300, 280, 150, 40, 60), "legs_swapped");  // under half of 290
+  EXPECT_EQ(lostFrameCause(300, 280, 150, -40, 200), "heading");
+  EXPECT_EQ(lostFrameCause(300, 20, 150, 10, 400), "legs");
+  EXPECT_EQ(lostFrameCause(30, 20, 150, 10, 400), "arms");
+  EXPECT_EQ(lostFrameCause(30, 20, 50, 10, 400), "other");  // the trunk or head alone
+}
+
+// Every lost frame has one cause, and with --trace (which scores the truth too) a body 30 cm off
+// after one frame of search is a failure of the search: the truth outscores the estimate.
+TEST(HumanExperiment, LostFramesOfABodyOffAreSearchFailures) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config = bodyOffTwoFrames();
+  config.trace_path = (std::filesystem::temp_directory_path() /
+                       ("human_trace_" + std::to_string(getpid()) + ".csv")).string();
+  const nlohmann::json out = runHumanExperiment(config);
+  std::filesystem::remove(config.trace_path);
+  ASSERT_EQ(out["lost_frames"], 2) << out.dump();
+  int causes = 0;
+  for (const auto& [cause, count] : out["lost_frame_causes"].items()) causes += count.get<int>();
+  EXPECT_EQ(causes, 2) << out["lost_frame_causes"].dump();
+  EXPECT_EQ(out["lost_frames_truth_ahead"], 2);
+  config.trace_path.clear();
+  EXPECT_FALSE(runHumanExperiment(config).contains("lost_frames_truth_ahead"));
 }
 
 TEST(HumanExperiment, BadOptionsAreNamed) {
