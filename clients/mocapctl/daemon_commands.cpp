@@ -279,11 +279,12 @@ int runBench(int argc, char** argv) {
   const auto start = Clock::now();
   const auto end = start + std::chrono::seconds(seconds);
   auto last_progress = start;
-  std::vector<double> latencies_ms;
+  std::vector<double> latencies_ms, errors_mm;
   uint64_t missed = 0, last_frame = first_frame;
   while (Clock::now() < end && reader->Read(&pose)) {
     // Same host, same CLOCK_MONOTONIC: arrival minus exposure is the whole capture-to-wire path.
     latencies_ms.push_back(static_cast<double>(monotonicNowNs() - pose.capture_monotonic_ns()) / 1e6);
+    if (pose.has_reference_error_mm()) errors_mm.push_back(pose.reference_error_mm());
     missed += pose.missed_before();
     last_frame = pose.frame_sequence();
     if (Clock::now() - last_progress >= std::chrono::seconds(1)) {
@@ -296,9 +297,9 @@ int runBench(int argc, char** argv) {
   reader->Finish();
   std::cerr << "\n";
   if (latencies_ms.empty()) throw std::runtime_error("no pose arrived after the first one");
-  std::sort(latencies_ms.begin(), latencies_ms.end());
-  const auto percentile = [&](double p) {
-    return latencies_ms[static_cast<std::size_t>(p * static_cast<double>(latencies_ms.size() - 1) + 0.5)];
+  const auto percentile = [](std::vector<double>& values, double p) {
+    std::sort(values.begin(), values.end());
+    return values[static_cast<std::size_t>(p * static_cast<double>(values.size() - 1) + 0.5)];
   };
   nlohmann::json summary = {
       {"seconds", elapsed},
@@ -306,9 +307,20 @@ int runBench(int argc, char** argv) {
       {"poses_per_second", static_cast<double>(latencies_ms.size()) / elapsed},
       {"frame_sets_spanned", last_frame - first_frame},
       {"missed_by_this_client", missed},
-      {"latency_ms", {{"p50", percentile(0.5)}, {"p99", percentile(0.99)},
+      {"latency_ms", {{"p50", percentile(latencies_ms, 0.5)},
+                      {"p99", percentile(latencies_ms, 0.99)},
                       {"max", latencies_ms.back()}}},
   };
+  // A source that knows the truth (the fake scene): how far the poses were from it.
+  if (!errors_mm.empty()) {
+    double sum = 0;
+    long over_100 = 0;
+    for (double e : errors_mm) sum += e, over_100 += e > 100;
+    summary["reference_error_mm"] = {
+        {"median", percentile(errors_mm, 0.5)},
+        {"mean", sum / static_cast<double>(errors_mm.size())},
+        {"share_over_100", static_cast<double>(over_100) / static_cast<double>(errors_mm.size())}};
+  }
   std::cout << summary.dump(2) << "\n";
   return 0;
 }

@@ -13,7 +13,8 @@ inline constexpr const char* kRecordUsage =
     "record start [PATH] | record stop   (PATH relative to the daemon's recording directory)";
 inline constexpr const char* kBvhUsage = "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
 inline constexpr const char* kBenchUsage =
-    "bench [--seconds N]      capture-to-pose-on-the-wire latency and sustained pose rate";
+    "bench [--seconds N]      capture-to-pose-on-the-wire latency, sustained pose rate and,\n"
+    "                         from the fake scene, the poses' error against the truth";
 
 int runStream(int argc, char** argv);
 int runStatus(int argc, char** argv);

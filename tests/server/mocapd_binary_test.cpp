@@ -1,5 +1,5 @@
 // The real mocapd binary: a bad configuration is refused with its message; SIGTERM ends the pose
-// streams with OK and exits 0.
+// streams with OK and exits 0; `mocapctl bench` against it reports latency, rate and error.
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
@@ -15,6 +15,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "server/server_test_support.h"
 
@@ -50,27 +51,35 @@ TEST(MocapdBinaryTest, BadConfigIsRefusedWithItsMessage) {
   std::filesystem::remove(path);
 }
 
-TEST(MocapdBinaryTest, SigtermEndsStreamsAndExitsZero) {
-  const int port = freePort();
+// Starts mocapd (the built-in fake scene) on `port` and waits until it publishes poses (a
+// generous limit, not a timing assertion). Returns its pid, or -1 if it never served.
+pid_t startMocapd(int port) {
   const pid_t child = fork();
-  ASSERT_GE(child, 0);
   if (child == 0) {
     const std::string listen = "127.0.0.1:" + std::to_string(port);
     execl(MOCAP_BIN_DIR "/mocapd", "mocapd", "--listen", listen.c_str(), "--log-level", "warning",
           static_cast<char*>(nullptr));
     _exit(127);
   }
+  if (child < 0) return -1;
   auto stub = test::connect(port);
-  // Wait until it serves (a generous limit, not a timing assertion).
-  bool serving = false;
-  for (int attempt = 0; attempt < 300 && !serving; ++attempt) {
+  for (int attempt = 0; attempt < 300; ++attempt) {
     grpc::ClientContext context;
     context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(200));
     v1::Status status;
-    serving = stub->GetStatus(&context, {}, &status).ok() && status.poses_published() > 0;
-    if (!serving) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (stub->GetStatus(&context, {}, &status).ok() && status.poses_published() > 0) return child;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  ASSERT_TRUE(serving);
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
+  return -1;
+}
+
+TEST(MocapdBinaryTest, SigtermEndsStreamsAndExitsZero) {
+  const int port = freePort();
+  const pid_t child = startMocapd(port);
+  ASSERT_GT(child, 0);
+  auto stub = test::connect(port);
   test::PoseCounter stream(*stub);
   stream.startCounting();
   while (stream.received() < 5) std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -81,6 +90,32 @@ TEST(MocapdBinaryTest, SigtermEndsStreamsAndExitsZero) {
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0);
   EXPECT_TRUE(stream.finish().ok());
+}
+
+// The fake scene knows the truth, so the bench reports the poses' error against it besides the
+// latency and the rate.
+TEST(MocapdBinaryTest, BenchReportsLatencyRateAndErrorAgainstTheTruth) {
+  const int port = freePort();
+  const pid_t child = startMocapd(port);
+  ASSERT_GT(child, 0);
+  const std::string command = MOCAP_BIN_DIR "/mocapctl bench --seconds 2 --server 127.0.0.1:" +
+                              std::to_string(port) + " 2>/dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_TRUE(pipe);
+  std::string output;
+  char buffer[1024];
+  while (fgets(buffer, sizeof buffer, pipe)) output += buffer;
+  EXPECT_EQ(WEXITSTATUS(pclose(pipe)), 0) << output;
+  kill(child, SIGTERM);
+  waitpid(child, nullptr, 0);
+  const nlohmann::json summary = nlohmann::json::parse(output);
+  EXPECT_GT(summary["poses"].get<int>(), 0) << output;
+  EXPECT_LE(summary["latency_ms"]["p50"].get<double>(), summary["latency_ms"]["p99"].get<double>());
+  ASSERT_TRUE(summary.contains("reference_error_mm")) << output;
+  const nlohmann::json& error = summary["reference_error_mm"];
+  EXPECT_GT(error["mean"].get<double>(), 0) << output;
+  EXPECT_GE(error["share_over_100"].get<double>(), 0);
+  EXPECT_LE(error["share_over_100"].get<double>(), 1);
 }
 
 }  // namespace
