@@ -174,7 +174,7 @@ class ConfigParser {
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
     onlyKeys(tracker, "tracker",
              {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
-              "refine", "refine_hold", "refine_restarts", "refine_facing_prior"});
+              "refine", "refine_hold", "refine_restarts", "refine_facing_prior", "dofs"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -208,6 +208,11 @@ class ConfigParser {
     if (tracker["refine_facing_prior"])
       t.refine_facing_prior =
           number(tracker["refine_facing_prior"], "tracker.refine_facing_prior", 0, 1e6);
+    if (tracker["dofs"]) {
+      t.dofs = text(tracker["dofs"], "tracker.dofs");
+      if (t.dofs != "all" && t.dofs != "gait")
+        fail(tracker["dofs"], "tracker.dofs", "expected all or gait, got '" + t.dofs + "'");
+    }
   }
 
   ServerConfig parse(const YAML::Node& root) const {
@@ -397,7 +402,8 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"refine", exact(refine)},
           {"refine_hold", refine_hold ? "true" : "false"},
           {"refine_restarts", exact(refine_restarts)},
-          {"refine_facing_prior", exact(refine_facing_prior)}};
+          {"refine_facing_prior", exact(refine_facing_prior)},
+          {"dofs", dofs}};
 }
 
 TrackerSettings replayTrackerSettings(const ServerConfig& config,

@@ -43,6 +43,9 @@ struct TrackerSettings {
   bool refine_hold = false;
   double refine_restarts = 0;
   double refine_facing_prior = 0;
+  // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the
+  // human's 17 of the lower body and trunk), the others held at the starting pose.
+  std::string dofs = "all";
 
   // The defaults when the tracked body is a person (body_model: builtin:human, a model file with
   // `kind: person`, or a scene_motion):

@@ -201,6 +201,19 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
     }
   }
 
+  // tracker.dofs: gait tracks the body's gait DOFs; the others hold the starting pose (the fake
+  // scene's first true pose, or the neutral pose).
+  if (server->config_.tracker.dofs == "gait") {
+    BodyModel& model = *server->model_;
+    if (model.gait_dofs.empty())
+      return Status::Error(config.source + ": tracker.dofs: gait, but the body model '" + model.name +
+                           "' names no gait_dofs");
+    const Eigen::VectorXd hold =
+        inputs.initial_pose.size() == static_cast<long>(model.dofs.size()) ? inputs.initial_pose
+                                                                           : model.neutralPose();
+    model = freezeAllBut(model, model.gait_dofs, hold);
+  }
+
   try {
     server->pipeline_ = std::make_unique<Pipeline>(server->config_, *server->model_,
                                                    *server->rig_, std::move(inputs),

@@ -43,9 +43,10 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   const ServerConfig config = parseConfig(
       "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
       "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
-      " refine_hold: true, refine_restarts: 0.14, refine_facing_prior: 16}\n",
+      " refine_hold: true, refine_restarts: 0.14, refine_facing_prior: 16, dofs: gait}\n",
       "test.yaml", ".");
   EXPECT_EQ(config.tracker.lookahead, "body");
+  EXPECT_EQ(config.tracker.dofs, "gait");
   EXPECT_EQ(config.tracker.refine, 0.4);
   EXPECT_TRUE(config.tracker.refine_hold);
   EXPECT_EQ(config.tracker.refine_restarts, 0.14);
@@ -57,6 +58,7 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   EXPECT_FALSE(plain.tracker.refine_hold);
   EXPECT_EQ(plain.tracker.refine_restarts, 0);
   EXPECT_EQ(plain.tracker.refine_facing_prior, 0);
+  EXPECT_EQ(plain.tracker.dofs, "all");
 }
 
 TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
@@ -129,6 +131,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   recorded.seed = 7;
   recorded.threads = 8;
   recorded.injection = 0.1 + 0.2;  // not the shortest decimal: must still read back exactly
+  recorded.dofs = "gait";
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
 
   // A configuration without tracker keys: the session's settings, the configuration's threads.
@@ -144,6 +147,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_EQ(as_recorded.refine, 0.4);
   EXPECT_TRUE(as_recorded.refine_hold);
   EXPECT_EQ(as_recorded.refine_restarts, 0.14);
+  EXPECT_EQ(as_recorded.dofs, "gait");
   EXPECT_EQ(as_recorded.threads, 1);
 
   // Keys the configuration sets itself win.
@@ -188,6 +192,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},
+      {cameras + "tracker: {dofs: arms}\n", "tracker.dofs: expected all or gait, got 'arms'"},
       {cameras + "listen: nowhere\n", "test.yaml:3: listen:"},
       {cameras + "trackr: {}\n", "trackr: unknown key"},
       {"cameras:\n  - {driver: nosuch}\n", "cameras[0].driver: no driver 'nosuch'"},

@@ -288,20 +288,30 @@ std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& ses
   return poses;
 }
 
-TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
+v1::Skeleton skeletonOf(v1::MocapService::Stub& stub) {
+  v1::Skeleton skeleton;
+  grpc::ClientContext context;
+  EXPECT_TRUE(stub.GetSkeleton(&context, {}, &skeleton).ok());
+  return skeleton;
+}
+
+// The fake scene playing the CMU walk, tracked with docs/human.md's options for people.
+ServerConfig walkingPersonConfig() {
   ServerConfig config = test::sceneConfig();
   config.body_model = "builtin:human";
   config.scene_motion = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
-  // docs/human.md's options for people.
   const int threads = config.tracker.threads;
   config.tracker = TrackerSettings::forPeople();
   config.tracker.threads = threads;
+  return config;
+}
+
+TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
+  const ServerConfig config = walkingPersonConfig();
   std::unique_ptr<MocapServer> server = startServer(config);
   ASSERT_TRUE(server);
   auto stub = test::connect(server->port());
-  v1::Skeleton skeleton;
-  grpc::ClientContext context;
-  ASSERT_TRUE(stub->GetSkeleton(&context, {}, &skeleton).ok());
+  const v1::Skeleton skeleton = skeletonOf(*stub);
   EXPECT_EQ(skeleton.dofs_size(), 31);
   EXPECT_EQ(skeleton.points_size(), 19);
 
@@ -343,6 +353,39 @@ TEST_F(EndToEndTest, TracksWithSpeedLimitsPerFrameAtTheCamerasRate) {
     for (std::size_t d = 0; d < file.dofs.size(); ++d)
       EXPECT_DOUBLE_EQ(tracked.dofs[d].max_speed, file.dofs[d].max_speed / 2) << file.dofs[d].name;
   }
+}
+
+// tracker.dofs: gait tracks the 17 gait DOFs of the walking person; the others hold the starting
+// pose in every published pose. A body without gait DOFs (the hand) is refused naming the key.
+TEST_F(EndToEndTest, TracksTheGaitDofsWhenTheConfigurationSaysSo) {
+  ServerConfig config = walkingPersonConfig();
+  config.tracker.evaluations = 800;
+  config.tracker.dofs = "gait";
+  std::unique_ptr<MocapServer> server = startServer(config);
+  ASSERT_TRUE(server);
+  auto stub = test::connect(server->port());
+  const v1::Skeleton skeleton = skeletonOf(*stub);
+  ASSERT_EQ(skeleton.dofs_size(), 31);
+  std::vector<int> held;
+  for (int d = 0; d < skeleton.dofs_size(); ++d)
+    if (skeleton.dofs(d).min() == skeleton.dofs(d).max()) held.push_back(d);
+  EXPECT_EQ(held.size(), 31u - 17u);
+
+  grpc::ClientContext stream_context;
+  auto reader = stub->StreamPoses(&stream_context, v1::StreamPosesRequest());
+  v1::Pose pose;
+  int received = 0;
+  for (; received < 10 && reader->Read(&pose); ++received)
+    for (int d : held) EXPECT_EQ(pose.dofs(d), skeleton.dofs(d).min()) << skeleton.dofs(d).name();
+  stream_context.TryCancel();
+  EXPECT_EQ(received, 10);
+  server->shutdown();
+
+  ServerConfig hand = test::sceneConfig();
+  hand.tracker.dofs = "gait";
+  Expected<std::unique_ptr<MocapServer>> refused = MocapServer::create(hand);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.error(), ::testing::HasSubstr("tracker.dofs: gait, but the body model 'hand'"));
 }
 
 TEST_F(EndToEndTest, ASceneMotionThatDoesNotLoadStopsTheStartUpNamingIt) {
