@@ -230,6 +230,16 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   };
   model.gait_dofs = dofNames("gait_dofs", false);
   model.facing_twists = dofNames("facing_twists", true);
+  // The facing prior adds the twists up, each signed by its axis against the first's: mirrored
+  // legs twist about opposite axes, and an axis at an angle to the first has no sign.
+  for (std::size_t k = 1; k < model.facing_twists.size(); ++k) {
+    const Eigen::Vector3d& first = model.dofs[model.dofIndex(model.facing_twists[0])].axis;
+    const Eigen::Vector3d& axis = model.dofs[model.dofIndex(model.facing_twists[k])].axis;
+    if (std::abs(std::abs(axis.dot(first)) - 1) > 1e-9)
+      p.fail(root["facing_twists"][k], "facing_twists[" + std::to_string(k) + "]",
+             "'" + model.facing_twists[k] + "' turns about an axis neither along nor against '" +
+                 model.facing_twists[0] + "''s");
+  }
   return model;
 }
 

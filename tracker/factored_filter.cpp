@@ -684,9 +684,10 @@ class FactoredFilter final : public PoseFilter {
   void findFacingTwists() {
     for (const std::string& name : model_.facing_twists) {
       const int d = model_.dofIndex(name);
-      const double sign = facing_twists_.empty()
-                              ? 1.0
-                              : model_.dofs[d].axis.dot(model_.dofs[facing_twists_[0].first].axis);
+      const double sign =
+          facing_twists_.empty() || model_.dofs[d].axis.dot(model_.dofs[facing_twists_[0].first].axis) > 0
+              ? 1.0
+              : -1.0;
       facing_twists_.push_back({d, sign});
     }
   }

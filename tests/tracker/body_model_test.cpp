@@ -104,6 +104,13 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
     bad.replace(at, std::string(c.from).size(), c.to);
     EXPECT_THAT(errorOf(bad), HasSubstr(c.error));
   }
+  // Facing twists add up signed by their axes, so each must turn about the first's axis or against it.
+  const std::string translation = "type: translation, axis: [1, 0, 0], min: 0, max: 0.1";
+  std::string crossed = kTwoSegments;
+  crossed.replace(crossed.find(translation), translation.size(), "axis: [1, 0, 0], min: 0, max: 10");
+  crossed.replace(crossed.find("name: arm"), 9, "name: arm\nfacing_twists: [shoulder, slide]");
+  EXPECT_THAT(errorOf(crossed), HasSubstr("bad.yaml:3: facing_twists[1]: 'slide' turns about an axis "
+                                          "neither along nor against 'shoulder''s"));
   EXPECT_THAT(errorOf("segments: [ {name: a"), HasSubstr("bad.yaml:1: not valid YAML"));
   EXPECT_THAT(errorOf("name: x"), HasSubstr("(top).segments: missing"));
 }
