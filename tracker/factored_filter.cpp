@@ -504,9 +504,7 @@ class FactoredFilter final : public PoseFilter {
   // Scores `pose` as one evaluation of `budget`. If it beats `value`, it becomes the evaluator's
   // current pose, `at` and `value`; otherwise the evaluator goes back to `at`.
   bool tryPose(const Eigen::VectorXd& pose, Eigen::VectorXd& at, double& value, int& budget) {
-    --budget;
-    const double score =
-        logLikelihood(options_.likelihood, refiner_->trial(pose)) - facingPrior(pose);
+    const double score = trialScore(pose, budget);
     if (score <= value) {
       refiner_->reject();
       return false;
@@ -515,6 +513,13 @@ class FactoredFilter final : public PoseFilter {
     value = score;
     at = pose;
     return true;
+  }
+
+  // The refinement's score of `pose`, as the evaluator's trial (to accept or reject), counted as
+  // one evaluation of `budget`: its log-likelihood less the facing prior.
+  double trialScore(const Eigen::VectorXd& pose, int& budget) {
+    --budget;
+    return logLikelihood(options_.likelihood, refiner_->trial(pose)) - facingPrior(pose);
   }
 
   // One step of DOF d from `at` each way while the budget is above `reserve`, the signed `step`
@@ -610,10 +615,6 @@ class FactoredFilter final : public PoseFilter {
   void restartLimb(Eigen::VectorXd& q, double& best, int& budget) {
     if (restart_limbs_.empty()) return;
     const RestartLimb& limb = restart_limbs_[restart_frame_++ % restart_limbs_.size()];
-    const auto evaluate = [&](const Eigen::VectorXd& pose) {
-      --budget;
-      return logLikelihood(options_.likelihood, refiner_->trial(pose)) - facingPrior(pose);
-    };
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& local = restart_pose_;
     double local_value = -INFINITY;
@@ -621,7 +622,7 @@ class FactoredFilter final : public PoseFilter {
       tried = q;
       for (int d : limb.root_dofs)
         tried[d] = std::uniform_real_distribution<double>(model_.dofs[d].min, model_.dofs[d].max)(rng_);
-      const double value = evaluate(tried);
+      const double value = trialScore(tried, budget);
       refiner_->reject();
       if (value > local_value) {
         local_value = value;
@@ -629,7 +630,7 @@ class FactoredFilter final : public PoseFilter {
       }
     }
     if (local_value == -INFINITY || budget <= 2) return;
-    evaluate(local);
+    trialScore(local, budget);
     refiner_->accept();
     std::vector<double>& steps = restart_steps_;
     steps.clear();
@@ -649,7 +650,7 @@ class FactoredFilter final : public PoseFilter {
       q = local;
       return;
     }
-    evaluate(q);
+    trialScore(q, budget);
     refiner_->accept();
   }
 
@@ -679,16 +680,15 @@ class FactoredFilter final : public PoseFilter {
     }
   }
 
-  // FilterOptions::refine_facing_prior: the model's facing twists, each with the sign of its axis
-  // against the first's (mirrored legs twist about opposite axes).
+  // FilterOptions::refine_facing_prior: the model's facing twists, each signed +1 or -1 as its
+  // axis is along or against the first's (mirrored legs twist about opposite axes; the model
+  // refuses any other).
   void findFacingTwists() {
+    if (model_.facing_twists.empty()) return;
+    const Eigen::Vector3d& first = model_.dofs[model_.dofIndex(model_.facing_twists[0])].axis;
     for (const std::string& name : model_.facing_twists) {
       const int d = model_.dofIndex(name);
-      const double sign =
-          facing_twists_.empty() || model_.dofs[d].axis.dot(model_.dofs[facing_twists_[0].first].axis) > 0
-              ? 1.0
-              : -1.0;
-      facing_twists_.push_back({d, sign});
+      facing_twists_.push_back({d, model_.dofs[d].axis.dot(first) > 0 ? 1.0 : -1.0});
     }
   }
 

@@ -297,9 +297,10 @@ int runBench(int argc, char** argv) {
   reader->Finish();
   std::cerr << "\n";
   if (latencies_ms.empty()) throw std::runtime_error("no pose arrived after the first one");
-  const auto percentile = [](std::vector<double>& values, double p) {
-    std::sort(values.begin(), values.end());
-    return values[static_cast<std::size_t>(p * static_cast<double>(values.size() - 1) + 0.5)];
+  std::sort(latencies_ms.begin(), latencies_ms.end());
+  std::sort(errors_mm.begin(), errors_mm.end());
+  const auto percentile = [](const std::vector<double>& sorted, double p) {
+    return sorted[static_cast<std::size_t>(p * static_cast<double>(sorted.size() - 1) + 0.5)];
   };
   nlohmann::json summary = {
       {"seconds", elapsed},

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <string_view>
 #include <random>
 
 #include <opencv2/imgcodecs.hpp>
@@ -117,19 +118,14 @@ std::vector<Limb> limbsOf(const BodyModel& model) {
 
 // The legs' error with the estimate's left leg scored against the truth's right leg and the other
 // way round: well under the legs' own error when the tracker swapped them, a silhouette ambiguity.
-double legsSwappedError(const std::vector<Limb>& limbs, const std::vector<Eigen::Vector3d>& truth,
+double legsSwappedError(const Limb& left, const Limb& right, const std::vector<Eigen::Vector3d>& truth,
                         const std::vector<Eigen::Vector3d>& estimate) {
-  const Limb* legs[2] = {nullptr, nullptr};
-  for (const Limb& limb : limbs) {
-    if (std::string(limb.name) == "left_leg") legs[0] = &limb;
-    if (std::string(limb.name) == "right_leg") legs[1] = &limb;
-  }
-  if (!legs[0] || !legs[1] || legs[0]->points.size() != legs[1]->points.size()) return 0;
+  if (left.points.size() != right.points.size()) return 0;
   double sum = 0;
-  for (int side = 0; side < 2; ++side)
-    for (std::size_t i = 0; i < legs[side]->points.size(); ++i)
-      sum += 1000 * (estimate[legs[side]->points[i]] - truth[legs[1 - side]->points[i]]).norm();
-  return sum / (2 * legs[0]->points.size());
+  for (std::size_t i = 0; i < left.points.size(); ++i)
+    sum += 1000 * ((estimate[left.points[i]] - truth[right.points[i]]).norm() +
+                   (estimate[right.points[i]] - truth[left.points[i]]).norm());
+  return sum / (2 * left.points.size());
 }
 
 }  // namespace
@@ -205,6 +201,15 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   int lost_truth_ahead = 0;  // lost frames whose truth scores over 20 units above the estimate
   const std::vector<Limb> limbs = limbsOf(model);
   std::vector<std::vector<double>> limb_error(limbs.size());  // per limb, per frame
+  // Limbs by name, for the lost frames' causes: an index into `limbs`, -1 if the model lacks it.
+  const auto limbNamed = [&](std::string_view name) {
+    for (std::size_t l = 0; l < limbs.size(); ++l)
+      if (limbs[l].name == name) return static_cast<int>(l);
+    return -1;
+  };
+  const int left_leg = limbNamed("left_leg"), right_leg = limbNamed("right_leg");
+  const int left_arm = limbNamed("left_arm"), right_arm = limbNamed("right_arm");
+  const auto latestError = [&](int l) { return l >= 0 ? limb_error[l].back() : 0.0; };
   long evaluations = 0, renders = 0;
   double tracking_seconds = 0;
   // Per-frame trace: tells a search failure (the estimate scores below the truth) from an
@@ -264,15 +269,15 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
         l_hip >= 0 && r_hip >= 0
             ? std::remainder(heading(tracked_points) - heading(true_points), 2 * M_PI) * 180 / M_PI
             : 0.0;
-    const double legs_swapped = legsSwappedError(limbs, true_points, tracked_points);
+    const double legs_swapped =
+        left_leg >= 0 && right_leg >= 0
+            ? legsSwappedError(limbs[left_leg], limbs[right_leg], true_points, tracked_points)
+            : 0.0;
     const bool lost = frame_error.back() > 100.0;
-    if (lost) {
-      std::map<std::string, double> limb_mm;
-      for (std::size_t l = 0; l < limbs.size(); ++l) limb_mm[limbs[l].name] = limb_error[l].back();
-      ++lost_causes[lostFrameCause(limb_mm["left_leg"], limb_mm["right_leg"],
-                                   std::max(limb_mm["left_arm"], limb_mm["right_arm"]),
+    if (lost)
+      ++lost_causes[lostFrameCause(latestError(left_leg), latestError(right_leg),
+                                   std::max(latestError(left_arm), latestError(right_arm)),
                                    heading_error, legs_swapped)];
-    }
     if (scorer) {
       const double truth_score = logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0));
       const double estimate_score =
@@ -305,7 +310,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     for (int f = 0; f < frames; ++f) {
       limb_sum += limb_error[l][f];
       limb_lost_frames += limb_error[l][f] > 100.0;
-      if (config.start_offset == "arm60" && std::string(limbs[l].name) == "left_arm" &&
+      if (config.start_offset == "arm60" && static_cast<int>(l) == left_arm &&
           arm_recovery < 0 && limb_error[l][f] < 50.0)
         arm_recovery = f;
     }
