@@ -248,7 +248,6 @@ BodyModel atFrameRate(const BodyModel& model, double hz) {
     throw std::invalid_argument("frame rate must be a positive number of Hz, got " +
                                 std::to_string(hz));
   BodyModel scaled = model;
-  if (hz == model.frame_rate) return scaled;
   for (Dof& dof : scaled.dofs) dof.max_speed *= model.frame_rate / hz;
   scaled.frame_rate = hz;
   return scaled;
