@@ -16,7 +16,9 @@ inline constexpr const char* kHumanUsage =
     "       [--frames N] [--seed S] [--dofs 31|17] [--noise none|realistic] [--threads N]\n"
     "       [--start-offset none|arm60|body30cm] [--injection SHARE] [--inject dof|segment]\n"
     "       [--keep K] [--samples S] [--layers M] [--lookahead none|root|subtree|body]\n"
-    "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]";
+    "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
+    "       [--reset-every N] [--speed-scale K] [--refine SHARE] [--refine-step SPEEDS]\n"
+    "       [--refine-hold 0|1] [--refine-restarts SHARE] [--refine-facing-prior W]";
 int runHumanCommand(int argc, char** argv);
 
 inline constexpr const char* kBvhFitUsage =

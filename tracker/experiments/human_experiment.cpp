@@ -157,6 +157,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (config.noise != "none" && config.noise != "realistic")
     throw std::invalid_argument("--noise: expected none or realistic, got '" + config.noise + "'");
   if (config.motion_path.empty()) throw std::invalid_argument("--motion FILE.bvh is required");
+  if (!(config.speed_scale > 0))
+    throw std::invalid_argument("--speed-scale: expected a positive factor");
   if (!config.overlay_dir.empty() && !std::filesystem::is_directory(config.overlay_dir))
     throw std::invalid_argument("--overlay: '" + config.overlay_dir + "' is not a directory");
   const BodyModel base =
@@ -186,7 +188,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   options.evaluations_per_frame = config.evaluations;
   options.seed = config.seed;
   WorkerPool pool(config.threads);
-  std::unique_ptr<PoseFilter> filter = makeFilter(config.method, model, rig, options, pool);
+  // The model at a rate 1/k times its own has k times its speed limits per frame.
+  const BodyModel tracked = atFrameRate(model, model.frame_rate / config.speed_scale);
+  std::unique_ptr<PoseFilter> filter = makeFilter(config.method, tracked, rig, options, pool);
   filter->reset(misplaced(model, truth[0], config.start_offset));
 
   SceneRenderer renderer(model, rig);
@@ -349,6 +353,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"ground_truth_fit_residual_mm", residual_count ? residual / residual_count : 0.0},
   };
   if (config.reset_every > 0) out["reset_every"] = config.reset_every;
+  if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
   // With --trace, which scores the truth as well: lost frames that are a failure of the search
   // (the truth scores higher) rather than an ambiguity of the silhouettes.
   if (scorer) out["lost_frames_truth_ahead"] = lost_truth_ahead;
@@ -368,7 +373,7 @@ int runHumanCommand(int argc, char** argv) {
                    "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
                    "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
                    "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts",
-                   "refine-facing-prior"},
+                   "refine-facing-prior", "speed-scale"},
                   {});
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
@@ -382,6 +387,7 @@ int runHumanCommand(int argc, char** argv) {
   config.start_offset = args.text("start-offset", config.start_offset);
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
   config.reset_every = static_cast<int>(args.integer("reset-every", 0, 0, 1'000'000));
+  config.speed_scale = args.real("speed-scale", 1.0, 0.01, 100.0);
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");

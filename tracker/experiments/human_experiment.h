@@ -54,6 +54,9 @@ struct HumanExperimentConfig {
   // Diagnosis of the search alone: every `reset_every` frames (0: never) the filter restarts from
   // the true pose of the frame before, so errors cannot build up; 1 gives the one-step error.
   int reset_every = 0;
+  // The tracker's speed limits are this times the model's, by which the truth is bounded: below 1,
+  // a subject who moves faster than the tracker allows; above 1, a looser motion prior.
+  double speed_scale = 1;
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none

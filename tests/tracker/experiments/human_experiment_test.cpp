@@ -1,6 +1,6 @@
 // The human experiment's scoring: per-limb errors point at the limb that is wrong, lost frames are
-// counted by what went wrong, --reset-every restarts from the truth, and bad flags are refused with
-// their names.
+// counted by what went wrong, --reset-every restarts from the truth, --speed-scale slows only the
+// tracker, and bad flags are refused with their names.
 #include "tracker/experiments/human_experiment.h"
 
 #include <unistd.h>
@@ -99,6 +99,36 @@ TEST(HumanExperiment, BadOptionsAreNamed) {
   config.overlay_dir.clear();
   config.noise = "fog";
   EXPECT_THROW(runHumanExperiment(config), std::invalid_argument);
+  config.noise = "none";
+  config.speed_scale = 0;
+  try {
+    runHumanExperiment(config);
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--speed-scale"), std::string::npos) << e.what();
+  }
+}
+
+// --speed-scale changes the tracker's speed limits and not the truth's: the layers alone (no
+// refinement, no injection: every candidate within its speed limit of its parent) allowed a
+// twentieth of the subject's speed fall behind the walk, on the same ground truth.
+TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config;
+  config.motion_path = kWalk;
+  config.frames = 25;
+  config.cameras = 2;
+  config.threads = 1;
+  config.filter.refine_share = 0;
+  config.filter.injection_share = 0;
+  const nlohmann::json as_is = runHumanExperiment(config);
+  config.speed_scale = 0.05;
+  const nlohmann::json slowed = runHumanExperiment(config);
+  EXPECT_EQ(slowed["speed_scale"], 0.05);
+  EXPECT_FALSE(as_is.contains("speed_scale"));
+  EXPECT_EQ(slowed["ground_truth_fit_residual_mm"], as_is["ground_truth_fit_residual_mm"]);
+  EXPECT_GT(slowed["mpjpe_mm"].get<double>(), 1.2 * as_is["mpjpe_mm"].get<double>())
+      << as_is["mpjpe_mm"] << " vs " << slowed["mpjpe_mm"];
 }
 
 }  // namespace
