@@ -13,10 +13,7 @@
 namespace mocapctl {
 
 int runCalibrate(int argc, char** argv) {
-  const mocap::Args args(argc, argv, 2,
-                         {"board", "cols", "rows", "square", "marker", "dictionary", "images",
-                          "session", "every", "floor-view", "out", "min-views"},
-                         {});
+  const mocap::Args args(argc, argv, 2, kCalibrateUsage);
   if (args.has("images") == args.has("session"))
     throw std::invalid_argument(
         "give exactly one of --images DIR and --session DIR\nusage: mocapctl " +

@@ -7,7 +7,7 @@ namespace mocapctl {
 inline constexpr const char* kCalibrateUsage =
     "calibrate --board checkerboard|charuco --cols N --rows N --square M [--marker M]\n"
     "          [--dictionary 4X4_250] (--images DIR | --session DIR [--every N])\n"
-    "          [--floor-view NAME] --out RIG.yaml\n"
+    "          [--floor-view NAME] [--min-views N] --out RIG.yaml\n"
     "          (cols/rows count squares; --images: one folder of images per camera, matched by "
     "file name; --session: a recorded session, one view per frame set named by its sequence "
     "number, every N-th set used)";

@@ -366,10 +366,7 @@ nlohmann::json runCalibrationExperiment(const CalibrationExperimentConfig& confi
 }
 
 int runCalibrationCommand(int argc, char** argv) {
-  const Args args(argc, argv, 2,
-                  {"cameras", "views", "noise", "seed", "board", "cols", "rows", "square", "marker",
-                   "dictionary", "width", "height", "write-images"},
-                  {});
+  const Args args(argc, argv, 2, kCalibrationUsage);
   CalibrationExperimentConfig config;
   config.cameras = static_cast<int>(args.integer("cameras", 4, 1, 16));
   config.views = static_cast<int>(args.integer("views", 30, 2, 1000));

@@ -1,22 +1,46 @@
 // Minimal command-line flags for the experiment commands: "--name value" pairs and "--switch",
-// with errors that name the flag.
+// taken from the command's usage text, with errors that name the flag.
 #pragma once
 
+#include <cctype>
 #include <map>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace mocap {
 
 class Args {
  public:
-  // `switches` take no value; every other flag in `known` takes one.
-  Args(int argc, char** argv, int first, const std::set<std::string>& known,
-       const std::set<std::string>& switches) {
+  // The flags are read off `usage`, the command's usage text, so the text a user is shown and the
+  // flags accepted cannot drift apart: "--name WORD" (WORD a placeholder) takes a value; "--name"
+  // followed by "]", a line break, " [" or the end is a switch; any other mention ("--name:" in
+  // a remark) declares nothing.
+  Args(int argc, char** argv, int first, std::string_view usage) {
+    std::set<std::string> known, switches;
+    auto in_name = [](char c) {
+      return std::islower(static_cast<unsigned char>(c)) ||
+             std::isdigit(static_cast<unsigned char>(c)) || c == '-';
+    };
+    for (std::size_t at = usage.find("--"); at != std::string_view::npos;
+         at = usage.find("--", at)) {
+      std::size_t end = at + 2;
+      while (end < usage.size() && in_name(usage[end])) ++end;
+      const std::string name(usage.substr(at + 2, end - at - 2));
+      const char next = end < usage.size() ? usage[end] : '\n';
+      const char after = end + 1 < usage.size() ? usage[end + 1] : '\n';
+      if (next == ' ' && after != '[' && after != '\n' && after != ' ')
+        known.insert(name);
+      else if (next == ']' || next == '\n' || (next == ' ' && after == '['))
+        switches.insert(name);
+      at = end;
+    }
+    for (const std::string& name : known) switches.erase(name);
     for (int i = first; i < argc; ++i) {
       std::string flag = argv[i];
-      if (flag.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + flag + "'");
+      if (flag.rfind("--", 0) != 0)
+        throw std::invalid_argument("unexpected argument '" + flag + "'");
       flag = flag.substr(2);
       if (!known.count(flag) && !switches.count(flag))
         throw std::invalid_argument("unknown flag --" + flag);

@@ -16,7 +16,7 @@
 namespace mocap {
 
 int runBvhFitCommand(int argc, char** argv) {
-  const Args args(argc, argv, 2, {"motion", "frames", "rate", "model"}, {});
+  const Args args(argc, argv, 2, kBvhFitUsage);
   if (!args.has("motion")) throw std::invalid_argument("--motion FILE.bvh is required");
   const Bvh bvh = loadBvh(args.text("motion", ""));
   const BodyModel model =

@@ -95,10 +95,7 @@ nlohmann::json runHandExperiment(const HandExperimentConfig& config) {
 namespace mocap {
 
 int runHandCommand(int argc, char** argv) {
-  const Args args(argc, argv, 2,
-                  {"method", "evals", "frames", "seed", "cameras", "motion", "model", "threads",
-                   "keep", "samples", "injection", "beta", "lookahead", "refine"},
-                  {"describe"});
+  const Args args(argc, argv, 2, kHandUsage);
   if (args.has("describe")) {
     const BodyModel model =
         args.has("model") ? loadBodyModel(args.text("model", "")) : builtinHandModel();

@@ -368,13 +368,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
 }
 
 int runHumanCommand(int argc, char** argv) {
-  const Args args(argc, argv, 2,
-                  {"motion", "method",       "evals",    "cameras", "frames",    "seed",  "dofs",
-                   "noise",  "start-offset", "threads",  "model",   "injection", "keep",  "samples",
-                   "layers", "lookahead",    "estimate", "trace",   "overlay",   "inject",
-                   "reset-every", "refine", "refine-step", "refine-hold", "refine-restarts",
-                   "refine-facing-prior", "speed-scale"},
-                  {});
+  const Args args(argc, argv, 2, kHumanUsage);
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
   config.method = args.text("method", config.method);

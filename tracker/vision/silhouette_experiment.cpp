@@ -86,10 +86,7 @@ nlohmann::json runSilhouetteExperiment(const SilhouetteExperimentConfig& config)
 }
 
 int runSilhouetteCommand(int argc, char** argv) {
-  const Args args(argc, argv, 2,
-                  {"seed", "frames", "width", "height", "learn", "threshold", "texture-sigmas",
-                   "texture-contrast", "dump"},
-                  {"gray", "no-shadows", "no-adaptive"});
+  const Args args(argc, argv, 2, kSilhouetteUsage);
   SilhouetteExperimentConfig config;
   config.seed = static_cast<uint64_t>(args.integer("seed", 1, 0, 1L << 40));
   config.frames = static_cast<int>(args.integer("frames", 100, 1, 100000));

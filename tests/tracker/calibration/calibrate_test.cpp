@@ -321,7 +321,8 @@ std::string flagError(std::vector<std::string> words) {
   for (auto& w : words) argv.push_back(w.data());
   try {
     const Args args(static_cast<int>(argv.size()), argv.data(), 2,
-                    {"board", "cols", "rows", "square", "marker", "dictionary"}, {});
+                    "calibrate [--board TYPE] [--cols N] [--rows N] [--square M] [--marker M] "
+                    "[--dictionary NAME]");
     boardFromFlags(args, BoardSpec{});
   } catch (const std::invalid_argument& e) {
     return e.what();
