@@ -174,7 +174,8 @@ class ConfigParser {
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
     onlyKeys(tracker, "tracker",
              {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
-              "refine", "refine_hold", "refine_restarts", "refine_facing_prior", "dofs"});
+              "refine", "refine_hold", "refine_plant", "refine_restarts", "refine_facing_prior",
+              "dofs"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -203,6 +204,8 @@ class ConfigParser {
     }
     if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
     if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
+    if (tracker["refine_plant"])
+      t.refine_plant = boolean(tracker["refine_plant"], "tracker.refine_plant");
     if (tracker["refine_restarts"])
       t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
     if (tracker["refine_facing_prior"])
@@ -364,6 +367,7 @@ TrackerSettings TrackerSettings::forPeople() {
   people.lookahead = "body";
   people.refine = 0.4;
   people.refine_hold = true;
+  people.refine_plant = true;
   people.refine_restarts = 0.14;
   people.refine_facing_prior = 16;
   return people;
@@ -378,6 +382,7 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.lookahead = parseLookahead(lookahead);
   options.refine_share = refine;
   options.refine_hold = refine_hold;
+  options.refine_plant = refine_plant;
   options.refine_restart_share = refine_restarts;
   options.refine_facing_prior = refine_facing_prior;
   return options;
@@ -401,6 +406,7 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"lookahead", lookahead},
           {"refine", exact(refine)},
           {"refine_hold", refine_hold ? "true" : "false"},
+          {"refine_plant", refine_plant ? "true" : "false"},
           {"refine_restarts", exact(refine_restarts)},
           {"refine_facing_prior", exact(refine_facing_prior)},
           {"dofs", dofs}};

@@ -34,13 +34,14 @@ struct TrackerSettings {
   uint64_t seed = 1;                // the filters are deterministic for a seed
   // factored only (FilterOptions): what a layer ranks its candidates by ("none" is the paper), the
   // share of the budget spent on the full-body refinement, whether the refinement also turns
-  // segments with their ball-joint children held, the share of the refinement spent on
-  // restarting a limb, and the weight of the prior that the pelvis faces where the legs do. For
-  // people, docs/human.md's defaults: body, 0.4, true, 0.14, 16 (with inject: segment,
-  // injection: 0.05, evaluations: 2000).
+  // segments with their ball-joint children held, whether it moves the pelvis with the feet
+  // planted, the share of the refinement spent on restarting a limb, and the weight of the prior
+  // that the pelvis faces where the legs do. For people, docs/human.md's defaults: body, 0.4,
+  // true, true, 0.14, 16 (with inject: segment, injection: 0.05, evaluations: 2000).
   std::string lookahead = "none";
   double refine = 0;
   bool refine_hold = false;
+  bool refine_plant = false;
   double refine_restarts = 0;
   double refine_facing_prior = 0;
   // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the

@@ -145,7 +145,7 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   Parser p(source);
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
   p.onlyKeys(root, "(top)",
-             {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "segments"});
+             {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "feet", "segments"});
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
   if (root["kind"]) {
@@ -240,6 +240,21 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
              "'" + model.facing_twists[k] + "' turns about an axis neither along nor against '" +
                  model.facing_twists[0] + "''s");
   }
+  if (const YAML::Node feet = root["feet"]) {
+    if (!feet.IsSequence()) p.fail(feet, "feet", "expected a list of segment names");
+    for (std::size_t k = 0; k < feet.size(); ++k) {
+      const std::string path = "feet[" + std::to_string(k) + "]";
+      std::string name = p.text(feet[k], path);
+      const int s = model.segmentIndex(name);
+      if (s < 0) p.fail(feet[k], path, "unknown segment '" + name + "'");
+      // Planted through the joints of its parent and grandparent (knee and hip).
+      if (model.segments[s].parent < 0 || model.segments[model.segments[s].parent].parent < 0)
+        p.fail(feet[k], path, "'" + name + "' needs a parent and a grandparent segment");
+      if (std::find(model.feet.begin(), model.feet.end(), name) != model.feet.end())
+        p.fail(feet[k], path, "'" + name + "' is listed twice");
+      model.feet.push_back(name);
+    }
+  }
   return model;
 }
 
@@ -290,6 +305,7 @@ std::string formatBodyModel(const BodyModel& model) {
   if (!model.facing_twists.empty()) {
     out << YAML::Key << "facing_twists" << YAML::Value << YAML::Flow << model.facing_twists;
   }
+  if (!model.feet.empty()) out << YAML::Key << "feet" << YAML::Value << YAML::Flow << model.feet;
   out << YAML::Key << "segments" << YAML::Value << YAML::BeginSeq;
   for (std::size_t s = 0; s < model.segments.size(); ++s) {
     const Segment& seg = model.segments[s];

@@ -66,6 +66,10 @@ class BodyModel {
   // the pelvis faces away from the legs; the tracker's facing prior keeps it small
   // (FilterOptions::refine_facing_prior).
   std::vector<std::string> facing_twists;
+  // Optional: segments whose joint stays planted where it is when the tracker's refinement moves
+  // the pelvis (the human's r_foot, l_foot): it re-solves the rotations of the two segments above
+  // each (hip and knee), other than facing twists (FilterOptions::refine_plant).
+  std::vector<std::string> feet;
   // `kind: person` in the file: the body is a person's, so a daemon tracking it starts from the
   // tracker settings measured on people (TrackerSettings::forPeople) rather than the hand's.
   bool person = false;

@@ -57,6 +57,14 @@ struct HeldChild {
   double sign[3];
 };
 
+// For FilterOptions::refine_plant: a foot segment, the DOFs that plant it (its hip and knee), and
+// the segments from the root down to it (all that places it).
+struct PlantedFoot {
+  int segment = -1;
+  std::vector<int> dofs;
+  std::vector<int> chain;
+};
+
 // For Lookahead::kBody, per parent particle and layer: the segments it has not placed yet (outside
 // the layer's subtree) at their previous pose, after the placed ones.
 struct RestOfBody {
@@ -124,6 +132,7 @@ class FactoredFilter final : public PoseFilter {
       refine_held_.resize(refine_dofs_.size());
       refine_hold_steps_.resize(refine_dofs_.size());
       if (options.refine_hold) findHeldChildren();
+      if (options.refine_plant) findPlantedFeet();
       if (options.refine_restart_share > 0) findRestartLimbs();
       if (options.refine_facing_prior > 0) findFacingTwists();
       // Each draw is followed by up to 3 poses of local search.
@@ -484,8 +493,12 @@ class FactoredFilter final : public PoseFilter {
       const int budget_before_sweep = budget;
       for (std::size_t i = 0; i < refine_dofs_.size() && budget > 0; ++i) {
         const int d = refine_dofs_[i];
-        if (!stepDof(d, refine_steps_[i], nullptr, q, best, budget, 0) && !refine_held_[i].empty())
+        if (stepDof(d, refine_steps_[i], nullptr, q, best, budget, 0)) continue;
+        if (!refine_held_[i].empty())
           stepDof(d, refine_hold_steps_[i], &refine_held_[i], q, best, budget, 0);
+        else if (!planted_feet_.empty() && model_.dofs[d].segment == 0 &&
+                 model_.dofs[d].type == DofType::kTranslation)
+          stepDof(d, refine_hold_steps_[i], nullptr, q, best, budget, 0, true);
       }
       // Every step has shrunk below what moves a DOF (or every DOF sits at a limit): nothing
       // left to try, so stop rather than loop forever on the unspent budget.
@@ -524,9 +537,10 @@ class FactoredFilter final : public PoseFilter {
 
   // One step of DOF d from `at` each way while the budget is above `reserve`, the signed `step`
   // first (the direction that last worked), optionally with the segment's ball-joint children
-  // held: a step that improves is taken and grows by half; if neither does, the step halves.
+  // held or the feet planted: a step that improves is taken and grows by half; if neither does,
+  // the step halves.
   bool stepDof(int d, double& step, const std::vector<HeldChild>* held, Eigen::VectorXd& at,
-               double& value, int& budget, int reserve) {
+               double& value, int& budget, int reserve, bool plant = false) {
     const Dof& dof = model_.dofs[d];
     Eigen::VectorXd& tried = refine_trial_;
     for (const double signed_step : {step, -step}) {
@@ -535,6 +549,7 @@ class FactoredFilter final : public PoseFilter {
       tried[d] = std::clamp(at[d] + signed_step, dof.min, dof.max);
       if (tried[d] == at[d]) continue;
       if (held) holdChildren(at, tried, *held);
+      if (plant) plantFeet(at, tried);
       if (tryPose(tried, at, value, budget)) {
         step = 1.5 * signed_step;
         return true;
@@ -604,6 +619,67 @@ class FactoredFilter final : public PoseFilter {
       for (int j = 0; j < 3; ++j) {
         const Dof& angle = model_.dofs[child.dofs[j]];
         tried[child.dofs[j]] = std::clamp(best[j], angle.min, angle.max);
+      }
+    }
+  }
+
+  // For FilterOptions::refine_plant: each of the model's feet and the free rotations of the two
+  // segments above it, facing twists left out (the facing prior governs them, and without them
+  // hip and knee have three angles for the foot's three coordinates).
+  void findPlantedFeet() {
+    for (const std::string& name : model_.feet) {
+      PlantedFoot foot;
+      foot.segment = model_.segmentIndex(name);
+      for (int s = foot.segment; s >= 0; s = model_.segments[s].parent)
+        foot.chain.insert(foot.chain.begin(), s);
+      const int knee = model_.segments[foot.segment].parent;
+      for (int s : {model_.segments[knee].parent, knee})
+        for (int d : model_.segments[s].dofs) {
+          const Dof& dof = model_.dofs[d];
+          const bool facing = std::find(model_.facing_twists.begin(), model_.facing_twists.end(),
+                                        dof.name) != model_.facing_twists.end();
+          if (dof.isFree() && dof.type == DofType::kRotation && !facing) foot.dofs.push_back(d);
+        }
+      if (!foot.dofs.empty()) planted_feet_.push_back(std::move(foot));
+    }
+  }
+
+  // Re-solves the planted feet's hip and knee angles in `tried` (which differs from `q` in the
+  // pelvis) so each foot's joint stays where it is at q: damped Gauss-Newton steps on a numeric
+  // Jacobian, clamped to the joint limits.
+  void plantFeet(const Eigen::VectorXd& q, Eigen::VectorXd& tried) {
+    constexpr int kIterations = 6;
+    constexpr double kTolerance = 1e-4, kProbe = 1e-5, kDamping = 1e-4;  // metres, radians
+    KinematicsData& kin = plant_kinematics_;
+    std::vector<Eigen::Vector3d>& targets = plant_targets_;
+    targets.clear();
+    for (const PlantedFoot& foot : planted_feet_) {
+      forwardKinematics(model_, kin, q, foot.chain);
+      targets.push_back(kin.world[foot.segment].translation());
+    }
+    Eigen::VectorXd& probe = plant_probe_;
+    for (std::size_t f = 0; f < planted_feet_.size(); ++f) {
+      const PlantedFoot& foot = planted_feet_[f];
+      const int n = static_cast<int>(foot.dofs.size());
+      for (int iteration = 0; iteration < kIterations; ++iteration) {
+        forwardKinematics(model_, kin, tried, foot.chain);
+        const Eigen::Vector3d at = kin.world[foot.segment].translation();
+        const Eigen::Vector3d residual = targets[f] - at;
+        if (residual.norm() < kTolerance) break;
+        Eigen::MatrixXd jacobian(3, n);
+        for (int k = 0; k < n; ++k) {
+          probe = tried;
+          probe[foot.dofs[k]] += kProbe;
+          forwardKinematics(model_, kin, probe, foot.chain);
+          jacobian.col(k) = (kin.world[foot.segment].translation() - at) / kProbe;
+        }
+        const Eigen::MatrixXd normal = jacobian.transpose() * jacobian +
+                                       kDamping * Eigen::MatrixXd::Identity(n, n);
+        const Eigen::VectorXd change = normal.ldlt().solve(jacobian.transpose() * residual);
+        for (int k = 0; k < n; ++k) {
+          const Dof& dof = model_.dofs[foot.dofs[k]];
+          tried[foot.dofs[k]] = std::clamp(tried[foot.dofs[k]] + change[k], dof.min, dof.max);
+        }
       }
     }
   }
@@ -744,6 +820,10 @@ class FactoredFilter final : public PoseFilter {
   std::vector<double> refine_steps_;            // per refined DOF
   std::vector<std::vector<HeldChild>> refine_held_;  // per refined DOF (FilterOptions::refine_hold)
   std::vector<double> refine_hold_steps_;       // per refined DOF
+  std::vector<PlantedFoot> planted_feet_;       // FilterOptions::refine_plant
+  KinematicsData plant_kinematics_{model_};     // scratch of plantFeet()
+  std::vector<Eigen::Vector3d> plant_targets_;
+  Eigen::VectorXd plant_probe_;
   std::vector<RestartLimb> restart_limbs_;      // FilterOptions::refine_restart_share
   int restart_draws_ = 0;
   long restart_frame_ = 0;

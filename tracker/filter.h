@@ -58,6 +58,11 @@ struct FilterOptions {
   // leaves the legs and the trunk pointing where they did: a body tracked with its pelvis turned
   // the wrong way has its limbs twisted to fit, and no single joint angle can undo that.
   bool refine_hold = false;
+  // factored, with a refinement: a step of the pelvis's position that fails both ways is tried
+  // once more both ways with the hips and knees of the model's `feet` re-solved so the feet stay
+  // where they are. Squatting, kneeling or shifting weight moves the pelvis over planted feet; a
+  // pelvis step alone swings the feet through the floor, and no single leg angle follows it.
+  bool refine_plant = false;
   // factored, with a refinement: the share of the refinement's evaluations that, before the
   // pattern search, restart one limb (the next in turn each frame: legs, arms, chest, head) from
   // random draws of its root segment's angles over their whole range (a quarter of that share);

@@ -43,12 +43,14 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   const ServerConfig config = parseConfig(
       "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
       "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
-      " refine_hold: true, refine_restarts: 0.14, refine_facing_prior: 16, dofs: gait}\n",
+      " refine_hold: true, refine_plant: true, refine_restarts: 0.14, refine_facing_prior: 16,"
+      " dofs: gait}\n",
       "test.yaml", ".");
   EXPECT_EQ(config.tracker.lookahead, "body");
   EXPECT_EQ(config.tracker.dofs, "gait");
   EXPECT_EQ(config.tracker.refine, 0.4);
   EXPECT_TRUE(config.tracker.refine_hold);
+  EXPECT_TRUE(config.tracker.refine_plant);
   EXPECT_EQ(config.tracker.refine_restarts, 0.14);
   EXPECT_EQ(config.tracker.refine_facing_prior, 16);
   // Unset, they are the paper's filter.
@@ -56,6 +58,7 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   EXPECT_EQ(plain.tracker.lookahead, "none");
   EXPECT_EQ(plain.tracker.refine, 0);
   EXPECT_FALSE(plain.tracker.refine_hold);
+  EXPECT_FALSE(plain.tracker.refine_plant);
   EXPECT_EQ(plain.tracker.refine_restarts, 0);
   EXPECT_EQ(plain.tracker.refine_facing_prior, 0);
   EXPECT_EQ(plain.tracker.dofs, "all");
@@ -70,6 +73,7 @@ TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   EXPECT_EQ(person.tracker.lookahead, "body");
   EXPECT_EQ(person.tracker.refine, 0.4);
   EXPECT_TRUE(person.tracker.refine_hold);
+  EXPECT_TRUE(person.tracker.refine_plant);
   EXPECT_EQ(person.tracker.refine_restarts, 0.14);
   EXPECT_EQ(person.tracker.refine_facing_prior, 16);
 
@@ -122,6 +126,7 @@ TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
   EXPECT_EQ(daemon.injection_share, experiment.injection_share);
   EXPECT_EQ(daemon.refine_share, experiment.refine_share);
   EXPECT_EQ(daemon.refine_hold, experiment.refine_hold);
+  EXPECT_EQ(daemon.refine_plant, experiment.refine_plant);
   EXPECT_EQ(daemon.refine_restart_share, experiment.refine_restart_share);
   EXPECT_EQ(daemon.refine_facing_prior, experiment.refine_facing_prior);
 }
@@ -146,6 +151,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_EQ(as_recorded.lookahead, "body");
   EXPECT_EQ(as_recorded.refine, 0.4);
   EXPECT_TRUE(as_recorded.refine_hold);
+  EXPECT_TRUE(as_recorded.refine_plant);
   EXPECT_EQ(as_recorded.refine_restarts, 0.14);
   EXPECT_EQ(as_recorded.dofs, "gait");
   EXPECT_EQ(as_recorded.threads, 1);
@@ -189,6 +195,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
        "tracker.lookahead: expected none, root, subtree or body, got 'ahead'"},
       {cameras + "tracker: {refine: 1.5}\n", "tracker.refine: must be between 0 and 0.99"},
       {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
+      {cameras + "tracker: {refine_plant: 2}\n", "tracker.refine_plant"},
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},

@@ -90,7 +90,10 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       // A misspelt optional key is named, not ignored.
       {"name: arm", "name: arm\nkindd: person",
        "bad.yaml:3: (top).kindd: unknown key (known: name, kind, frame_rate, gait_dofs, "
-       "facing_twists, segments)"},
+       "facing_twists, feet, segments)"},
+      {"name: arm", "name: arm\nfeet: [lower]",
+       "bad.yaml:3: feet[0]: 'lower' needs a parent and a grandparent segment"},
+      {"name: arm", "name: arm\nfeet: [paw]", "feet[0]: unknown segment 'paw'"},
       {"name: arm", "name: arm\nframe_rate: 0", "bad.yaml:3: frame_rate: must be positive, got 0"},
       {"name: arm", "name: arm\nframe_rate: fast", "frame_rate: expected a number, got 'fast'"},
       {"offset: [0, 0, 1]", "ofset: [0, 0, 1]", "bad.yaml:5: segments[0] (upper).ofset: unknown key"},
@@ -132,6 +135,7 @@ TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
   const BodyModel m = loadBodyModel(std::string(MOCAP_SOURCE_DIR) + "/tracker/models/human.yaml");
   EXPECT_TRUE(m.person);
   EXPECT_EQ(m.facing_twists, (std::vector<std::string>{"r_hip_twist", "l_hip_twist"}));
+  EXPECT_EQ(m.feet, (std::vector<std::string>{"r_foot", "l_foot"}));
   EXPECT_FALSE(builtinHandModel().person);
   EXPECT_FALSE(parseBodyModel(kTwoSegments, "arm.yaml").person);
   EXPECT_EQ(m.dofs.size(), 31u);
@@ -178,6 +182,7 @@ void expectSameModel(const BodyModel& a, const BodyModel& b) {
   EXPECT_EQ(a.frame_rate, b.frame_rate);
   EXPECT_EQ(a.gait_dofs, b.gait_dofs);
   EXPECT_EQ(a.facing_twists, b.facing_twists);
+  EXPECT_EQ(a.feet, b.feet);
   ASSERT_EQ(a.segments.size(), b.segments.size());
   for (std::size_t s = 0; s < a.segments.size(); ++s) {
     const Segment &x = a.segments[s], &y = b.segments[s];

@@ -386,6 +386,80 @@ segments:
   EXPECT_GT(trackedYaw(0), 20);
 }
 
+// A squat: the pelvis 20 cm lower than the tracker holds it, hips and knees bent so the feet stand
+// where they stood. With big feet under a small pelvis, a pelvis step alone pushes the feet
+// through the floor and a leg angle alone lifts a foot off its silhouette, so single steps go down
+// slowly (5.9 cm short after this frame, 1.8 cm after five); a pelvis step with the feet planted
+// goes straight down.
+TEST(FactoredFilter, RefinementPlantingTheFeetFollowsASquat) {
+  const BodyModel model = parseBodyModel(R"(
+name: squatting_legs
+feet: [r_foot, l_foot]
+segments:
+  - name: pelvis
+    offset: [0, 0, 0.9]
+    dofs:
+      - {name: height, type: translation, axis: [0, 0, 1], min: -0.5, max: 0.5, max_speed: 0.03}
+    shape: {type: ellipsoid, center: [0, 0, 0], radii: [0.12, 0.08, 0.06]}
+  - name: r_thigh
+    parent: pelvis
+    offset: [0.1, 0, -0.05]
+    dofs: [{name: r_hip, axis: [1, 0, 0], min: -30, max: 120, max_speed: 20}]
+    shape: {type: cone, axis: [0, 0, -1], length: 0.42, radius_start: 0.04, radius_end: 0.03}
+  - name: r_shin
+    parent: r_thigh
+    offset: [0, 0, -0.42]
+    dofs: [{name: r_knee, axis: [-1, 0, 0], min: 0, max: 150, max_speed: 32}]
+    shape: {type: cone, axis: [0, 0, -1], length: 0.42, radius_start: 0.03, radius_end: 0.025}
+  - name: r_foot
+    parent: r_shin
+    offset: [0, 0, -0.42]
+    shape: {type: ellipsoid, center: [0, 0.08, -0.04], radii: [0.07, 0.16, 0.05]}
+  - name: l_thigh
+    parent: pelvis
+    offset: [-0.1, 0, -0.05]
+    dofs: [{name: l_hip, axis: [1, 0, 0], min: -30, max: 120, max_speed: 20}]
+    shape: {type: cone, axis: [0, 0, -1], length: 0.42, radius_start: 0.04, radius_end: 0.03}
+  - name: l_shin
+    parent: l_thigh
+    offset: [0, 0, -0.42]
+    dofs: [{name: l_knee, axis: [-1, 0, 0], min: 0, max: 150, max_speed: 32}]
+    shape: {type: cone, axis: [0, 0, -1], length: 0.42, radius_start: 0.03, radius_end: 0.025}
+  - name: l_foot
+    parent: l_shin
+    offset: [0, 0, -0.42]
+    shape: {type: ellipsoid, center: [0, 0.08, -0.04], radii: [0.07, 0.16, 0.05]}
+)",
+                                         "squat.yaml");
+  const Rig rig = twoCameras(Eigen::Vector3d(0, 0, 0.5), 0.6);
+  // Equal thigh and shin: the foot stays under the hip with the knee bent twice the hip.
+  const double drop = 0.2, hip = std::acos(1 - drop / (2 * 0.42));
+  Eigen::VectorXd truth(5), start = Eigen::VectorXd::Zero(5);
+  truth << -drop, hip, 2 * hip, hip, 2 * hip;
+  KinematicsData at_truth(model), at_start(model);
+  forwardKinematics(model, at_truth, truth);
+  forwardKinematics(model, at_start, start);
+  const int r_foot = model.segmentIndex("r_foot");
+  ASSERT_LT((at_truth.world[r_foot].translation() - at_start.world[r_foot].translation()).norm(),
+            1e-9);
+  const std::vector<SilhouetteMask> masks = silhouettes(model, rig, truth);
+
+  // One frame, the refinement taking nearly all of 400 evaluations.
+  auto heightError = [&](bool plant) {
+    WorkerPool pool(1);
+    FilterOptions options;
+    options.evaluations_per_frame = 400;
+    options.refine_share = 0.95;
+    options.injection_share = 0;
+    options.refine_plant = plant;
+    auto filter = makeFilter("factored", model, rig, options, pool);
+    filter->reset(start);
+    return std::abs(filter->step(masks).q[0] - truth[0]);
+  };
+  EXPECT_LT(heightError(true), 0.01);
+  EXPECT_GT(heightError(false), 0.03);
+}
+
 // A leg swung back while the true leg is swung forward: on the way between the two the leg covers
 // no more of the true leg's silhouette, so local steps do not bring it back; restarting the limb
 // from random draws of its angles finds it.

@@ -146,6 +146,7 @@ FilterOptions humanFilterDefaults() {
   options.injection_share = 0.05;
   options.refine_share = 0.4;
   options.refine_hold = true;
+  options.refine_plant = true;
   options.refine_restart_share = 0.14;
   options.refine_facing_prior = 16;
   return options;
@@ -339,6 +340,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"inject", options.injection == FilterOptions::Injection::kSegment ? "segment" : "dof"},
       {"refine", refined ? options.refine_share : 0.0},
       {"refine_hold", refined && options.refine_hold},
+      {"refine_plant", refined && options.refine_plant},
       {"refine_restart_share", refined ? options.refine_restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
@@ -399,6 +401,8 @@ int runHumanCommand(int argc, char** argv) {
       args.real("refine-restarts", config.filter.refine_restart_share, 0.0, 1.0);
   config.filter.refine_hold =
       args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
+  config.filter.refine_plant =
+      args.integer("refine-plant", config.filter.refine_plant ? 1 : 0, 0, 1) == 1;
   config.filter.refine_facing_prior =
       args.real("refine-facing-prior", config.filter.refine_facing_prior, 0.0, 1e6);
   const std::string estimate = args.text("estimate", "mean");
