@@ -208,25 +208,32 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
     }
     model.segments.push_back(seg);
   }
-  // A list of names of the model's DOFs.
-  const auto dofNames = [&](const char* field, bool rotations_only) {
+  // The list of names under `field`, each resolved by `index_of` to one of the model's `kind`s
+  // (-1: unknown), none named twice; `rule(index)` gives the field's own objection, or "".
+  const auto nameList = [&](const char* field, const std::string& kind, auto index_of, auto rule) {
     std::vector<std::string> names;
     const YAML::Node list = root[field];
     if (!list) return names;
-    if (!list.IsSequence()) p.fail(list, field, "expected a list of DOF names");
+    if (!list.IsSequence()) p.fail(list, field, "expected a list of " + kind + " names");
     for (std::size_t k = 0; k < list.size(); ++k) {
       const std::string path = std::string(field) + "[" + std::to_string(k) + "]";
       std::string name = p.text(list[k], path);
-      const int d = model.dofIndex(name);
-      if (d < 0) p.fail(list[k], path, "unknown DOF '" + name + "'");
-      if (rotations_only && model.dofs[d].type != DofType::kRotation)
-        p.fail(list[k], path, "'" + name + "' is not a rotation");
-      // Named twice, a twist would count twice in the facing prior's mean.
+      const int index = index_of(name);
+      if (index < 0) p.fail(list[k], path, "unknown " + kind + " '" + name + "'");
+      if (const std::string objection = rule(index); !objection.empty())
+        p.fail(list[k], path, "'" + name + "' " + objection);
+      // Named twice, an entry would count twice (a twist in the facing prior's mean).
       if (std::find(names.begin(), names.end(), name) != names.end())
         p.fail(list[k], path, "'" + name + "' is listed twice");
       names.push_back(name);
     }
     return names;
+  };
+  const auto dofNames = [&](const char* field, bool rotations_only) {
+    const auto index_of = [&](const std::string& name) { return model.dofIndex(name); };
+    return nameList(field, "DOF", index_of, [&](int d) {
+      return rotations_only && model.dofs[d].type != DofType::kRotation ? "is not a rotation" : "";
+    });
   };
   model.gait_dofs = dofNames("gait_dofs", false);
   model.facing_twists = dofNames("facing_twists", true);
@@ -240,21 +247,15 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
              "'" + model.facing_twists[k] + "' turns about an axis neither along nor against '" +
                  model.facing_twists[0] + "''s");
   }
-  if (const YAML::Node feet = root["feet"]) {
-    if (!feet.IsSequence()) p.fail(feet, "feet", "expected a list of segment names");
-    for (std::size_t k = 0; k < feet.size(); ++k) {
-      const std::string path = "feet[" + std::to_string(k) + "]";
-      std::string name = p.text(feet[k], path);
-      const int s = model.segmentIndex(name);
-      if (s < 0) p.fail(feet[k], path, "unknown segment '" + name + "'");
-      // Planted through the joints of its parent and grandparent (knee and hip).
-      if (model.segments[s].parent < 0 || model.segments[model.segments[s].parent].parent < 0)
-        p.fail(feet[k], path, "'" + name + "' needs a parent and a grandparent segment");
-      if (std::find(model.feet.begin(), model.feet.end(), name) != model.feet.end())
-        p.fail(feet[k], path, "'" + name + "' is listed twice");
-      model.feet.push_back(name);
-    }
-  }
+  // Planted through the joints of its parent and grandparent (knee and hip).
+  model.feet = nameList(
+      "feet", "segment", [&](const std::string& name) { return model.segmentIndex(name); },
+      [&](int s) {
+        const int parent = model.segments[s].parent;
+        return parent < 0 || model.segments[parent].parent < 0
+                   ? "needs a parent and a grandparent segment"
+                   : "";
+      });
   return model;
 }
 

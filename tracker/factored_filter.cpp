@@ -59,6 +59,7 @@ struct HeldChild {
 
 // For FilterOptions::refine_plant: a foot segment, the DOFs that plant it (its hip and knee), and
 // the segments from the root down to it (all that places it).
+constexpr int kMaxPlantDofs = 12;  // two joints of at most 6 DOFs each
 struct PlantedFoot {
   int segment = -1;
   std::vector<int> dofs;
@@ -666,16 +667,19 @@ class FactoredFilter final : public PoseFilter {
         const Eigen::Vector3d at = kin.world[foot.segment].translation();
         const Eigen::Vector3d residual = targets[f] - at;
         if (residual.norm() < kTolerance) break;
-        Eigen::MatrixXd jacobian(3, n);
+        // On the stack: two joints have at most 12 DOFs, and this runs for every planted trial.
+        Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxPlantDofs> jacobian(3, n);
         for (int k = 0; k < n; ++k) {
           probe = tried;
           probe[foot.dofs[k]] += kProbe;
           forwardKinematics(model_, kin, probe, foot.chain);
           jacobian.col(k) = (kin.world[foot.segment].translation() - at) / kProbe;
         }
-        const Eigen::MatrixXd normal = jacobian.transpose() * jacobian +
-                                       kDamping * Eigen::MatrixXd::Identity(n, n);
-        const Eigen::VectorXd change = normal.ldlt().solve(jacobian.transpose() * residual);
+        using Square =
+            Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxPlantDofs, kMaxPlantDofs>;
+        const Square normal = jacobian.transpose() * jacobian + kDamping * Square::Identity(n, n);
+        const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxPlantDofs, 1> change =
+            normal.ldlt().solve(jacobian.transpose() * residual);
         for (int k = 0; k < n; ++k) {
           const Dof& dof = model_.dofs[foot.dofs[k]];
           tried[foot.dofs[k]] = std::clamp(tried[foot.dofs[k]] + change[k], dof.min, dof.max);

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <string_view>
 #include <random>
+#include <string_view>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
