@@ -118,9 +118,10 @@ std::vector<Limb> limbsOf(const BodyModel& model) {
 
 // The legs' error with the estimate's left leg scored against the truth's right leg and the other
 // way round: well under the legs' own error when the tracker swapped them, a silhouette ambiguity.
+// NaN for legs that do not pair up point for point, which no comparison takes for a swap.
 double legsSwappedError(const Limb& left, const Limb& right, const std::vector<Eigen::Vector3d>& truth,
                         const std::vector<Eigen::Vector3d>& estimate) {
-  if (left.points.size() != right.points.size()) return 0;
+  if (left.points.size() != right.points.size()) return NAN;
   double sum = 0;
   for (std::size_t i = 0; i < left.points.size(); ++i)
     sum += 1000 * ((estimate[left.points[i]] - truth[right.points[i]]).norm() +
@@ -277,7 +278,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     const double legs_swapped =
         left_leg >= 0 && right_leg >= 0
             ? legsSwappedError(limbs[left_leg], limbs[right_leg], true_points, tracked_points)
-            : 0.0;
+            : NAN;
     const bool lost = frame_error.back() > 100.0;
     if (lost)
       ++lost_causes[lostFrameCause(latestError(left_leg), latestError(right_leg),

@@ -66,6 +66,8 @@ TEST(HumanExperiment, LostFramesAreCountedByWhatWentWrongFirst) {
   EXPECT_EQ(lostFrameCause(300, 20, 150, 10, 400), "legs");
   EXPECT_EQ(lostFrameCause(30, 20, 150, 10, 400), "arms");
   EXPECT_EQ(lostFrameCause(30, 20, 50, 10, 400), "other");  // the trunk or head alone
+  // A body without a pair of legs has no swap to measure (NaN), whatever its legs' errors.
+  EXPECT_EQ(lostFrameCause(300, 280, 150, 10, NAN), "legs");
 }
 
 // Every lost frame has one cause, and with --trace (which scores the truth too) a body 30 cm off
