@@ -174,8 +174,8 @@ class ConfigParser {
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
     onlyKeys(tracker, "tracker",
              {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
-              "refine", "refine_hold", "refine_plant", "refine_restarts", "refine_facing_prior",
-              "dofs"});
+              "refine", "refine_hold", "refine_plant", "refine_swap", "refine_restarts",
+              "refine_facing_prior", "dofs"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -206,6 +206,8 @@ class ConfigParser {
     if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
     if (tracker["refine_plant"])
       t.refine_plant = boolean(tracker["refine_plant"], "tracker.refine_plant");
+    if (tracker["refine_swap"])
+      t.refine_swap = boolean(tracker["refine_swap"], "tracker.refine_swap");
     if (tracker["refine_restarts"])
       t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
     if (tracker["refine_facing_prior"])
@@ -383,6 +385,7 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.refine_share = refine;
   options.refine_hold = refine_hold;
   options.refine_plant = refine_plant;
+  options.refine_swap = refine_swap;
   options.refine_restart_share = refine_restarts;
   options.refine_facing_prior = refine_facing_prior;
   return options;
@@ -407,6 +410,7 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"refine", exact(refine)},
           {"refine_hold", refine_hold ? "true" : "false"},
           {"refine_plant", refine_plant ? "true" : "false"},
+          {"refine_swap", refine_swap ? "true" : "false"},
           {"refine_restarts", exact(refine_restarts)},
           {"refine_facing_prior", exact(refine_facing_prior)},
           {"dofs", dofs}};

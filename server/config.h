@@ -42,6 +42,7 @@ struct TrackerSettings {
   double refine = 0;
   bool refine_hold = false;
   bool refine_plant = false;
+  bool refine_swap = false;
   double refine_restarts = 0;
   double refine_facing_prior = 0;
   // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the

@@ -134,6 +134,7 @@ class FactoredFilter final : public PoseFilter {
       refine_hold_steps_.resize(refine_dofs_.size());
       if (options.refine_hold) findHeldChildren();
       if (options.refine_plant) findPlantedFeet();
+      if (options.refine_swap) findSwappedLegs();
       if (options.refine_restart_share > 0) findRestartLimbs();
       if (options.refine_facing_prior > 0) findFacingTwists();
       // Each draw is followed by up to 3 poses of local search.
@@ -489,6 +490,7 @@ class FactoredFilter final : public PoseFilter {
     Eigen::VectorXd& tried = refine_trial_;
     Eigen::VectorXd& sweep_start = refine_sweep_start_;
     if (restart_draws_ > 0) restartLimb(q, best, budget);
+    if (!swap_pairs_.empty()) swapLegs(q, best, budget);
     while (budget > 0) {
       sweep_start = q;
       const int budget_before_sweep = budget;
@@ -734,6 +736,64 @@ class FactoredFilter final : public PoseFilter {
     refiner_->accept();
   }
 
+  // FilterOptions::refine_swap: each foot's leg (its grandparent, parent and itself), DOF by DOF
+  // in model order, paired with the other's.
+  void findSwappedLegs() {
+    const auto fail = [](const std::string& why) {
+      throw std::invalid_argument("factored filter: refine_swap: " + why);
+    };
+    if (model_.feet.size() != 2) fail("the body model names " + std::to_string(model_.feet.size()) +
+                                      " feet, not two");
+    std::vector<int> legs[2];
+    for (int f = 0; f < 2; ++f) {
+      const int foot = model_.segmentIndex(model_.feet[f]);
+      const int knee = model_.segments[foot].parent;
+      for (int s : {model_.segments[knee].parent, knee, foot})
+        for (int d : model_.segments[s].dofs)
+          if (model_.dofs[d].isFree()) legs[f].push_back(d);
+    }
+    if (legs[0].size() != legs[1].size())
+      fail("the legs of '" + model_.feet[0] + "' and '" + model_.feet[1] + "' have " +
+           std::to_string(legs[0].size()) + " and " + std::to_string(legs[1].size()) +
+           " free DOFs");
+    for (std::size_t k = 0; k < legs[0].size(); ++k) {
+      swap_pairs_.push_back({legs[0][k], legs[1][k]});
+      swap_dofs_.push_back(legs[0][k]);
+      swap_dofs_.push_back(legs[1][k]);
+    }
+  }
+
+  // FilterOptions::refine_swap: the pose with the legs' angles exchanged, searched locally on
+  // them; kept if it beats the pose by the margin, otherwise the evaluator goes back to the pose.
+  void swapLegs(Eigen::VectorXd& q, double& best, int& budget) {
+    if (budget <= 2) return;
+    Eigen::VectorXd& local = restart_pose_;
+    local = q;
+    for (const auto& [a, b] : swap_pairs_) {
+      local[a] = std::clamp(q[b], model_.dofs[a].min, model_.dofs[a].max);
+      local[b] = std::clamp(q[a], model_.dofs[b].min, model_.dofs[b].max);
+    }
+    double local_value = trialScore(local, budget);
+    refiner_->accept();
+    std::vector<double>& steps = restart_steps_;
+    steps.clear();
+    for (int d : swap_dofs_) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
+    const int search_start = budget;
+    const int poses = 2 * static_cast<int>(swap_dofs_.size());
+    for (int swept_from = -1; search_start - budget < poses && budget > 1 && budget != swept_from;) {
+      swept_from = budget;
+      for (std::size_t j = 0; j < swap_dofs_.size() && budget > 1; ++j)
+        stepDof(swap_dofs_[j], steps[j], nullptr, local, local_value, budget, 1);
+    }
+    if (local_value > best + options_.likelihood.beta * options_.refine_swap_margin) {
+      best = local_value;
+      q = local;
+      return;
+    }
+    trialScore(q, budget);
+    refiner_->accept();
+  }
+
   struct RestartLimb {
     std::vector<int> root_dofs;  // the limb root's free rotation DOFs
     std::vector<int> dofs;       // every free rotation DOF of the limb
@@ -818,6 +878,8 @@ class FactoredFilter final : public PoseFilter {
   std::vector<WorkerScratch> scratch_;
   std::vector<std::vector<int>> descendants_;  // per segment
   std::vector<RestOfBody> rest_;               // per kept particle
+  std::vector<std::pair<int, int>> swap_pairs_;  // refine_swap: a DOF of one leg, the other's
+  std::vector<int> swap_dofs_;                   // the same, flattened
   int refine_evaluations_ = 0;
   std::unique_ptr<IncrementalBodyEvaluator> refiner_;  // only with a refine share
   std::vector<int> refine_dofs_;                // the free DOFs, in layer order

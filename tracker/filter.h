@@ -63,6 +63,15 @@ struct FilterOptions {
   // where they are. Squatting, kneeling or shifting weight moves the pelvis over planted feet; a
   // pelvis step alone swings the feet through the floor, and no single leg angle follows it.
   bool refine_plant = false;
+  // factored, with a refinement: each frame, after the restarts and before the pattern search, the
+  // two legs (each of the model's two `feet` with its parent and grandparent) exchange their joint
+  // angles, and the exchanged pose is searched locally on the legs' angles (up to 2 poses per leg
+  // angle). It replaces the pose if it scores refine_swap_margin silhouette pixels better (that
+  // many times the likelihood's beta). Two silhouettes often fit both ways round (which leg is in
+  // front), no step of one leg gets from one to the other, and the margin keeps the tracker from
+  // flipping between the two on a small difference.
+  bool refine_swap = false;
+  double refine_swap_margin = 500;
   // factored, with a refinement: the share of the refinement's evaluations that, before the
   // pattern search, restart one limb (the next in turn each frame: legs, arms, chest, head) from
   // random draws of its root segment's angles over their whole range (a quarter of that share);

@@ -43,14 +43,15 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   const ServerConfig config = parseConfig(
       "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
       "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
-      " refine_hold: true, refine_plant: true, refine_restarts: 0.14, refine_facing_prior: 16,"
-      " dofs: gait}\n",
+      " refine_hold: true, refine_plant: true, refine_swap: true, refine_restarts: 0.14,"
+      " refine_facing_prior: 16, dofs: gait}\n",
       "test.yaml", ".");
   EXPECT_EQ(config.tracker.lookahead, "body");
   EXPECT_EQ(config.tracker.dofs, "gait");
   EXPECT_EQ(config.tracker.refine, 0.4);
   EXPECT_TRUE(config.tracker.refine_hold);
   EXPECT_TRUE(config.tracker.refine_plant);
+  EXPECT_TRUE(config.tracker.refine_swap);
   EXPECT_EQ(config.tracker.refine_restarts, 0.14);
   EXPECT_EQ(config.tracker.refine_facing_prior, 16);
   // Unset, they are the paper's filter.
@@ -59,6 +60,7 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   EXPECT_EQ(plain.tracker.refine, 0);
   EXPECT_FALSE(plain.tracker.refine_hold);
   EXPECT_FALSE(plain.tracker.refine_plant);
+  EXPECT_FALSE(plain.tracker.refine_swap);
   EXPECT_EQ(plain.tracker.refine_restarts, 0);
   EXPECT_EQ(plain.tracker.refine_facing_prior, 0);
   EXPECT_EQ(plain.tracker.dofs, "all");
@@ -74,6 +76,7 @@ TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   EXPECT_EQ(person.tracker.refine, 0.4);
   EXPECT_TRUE(person.tracker.refine_hold);
   EXPECT_TRUE(person.tracker.refine_plant);
+  EXPECT_FALSE(person.tracker.refine_swap);  // measured, not kept (docs/human.md)
   EXPECT_EQ(person.tracker.refine_restarts, 0.14);
   EXPECT_EQ(person.tracker.refine_facing_prior, 16);
 
@@ -127,6 +130,7 @@ TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
   EXPECT_EQ(daemon.refine_share, experiment.refine_share);
   EXPECT_EQ(daemon.refine_hold, experiment.refine_hold);
   EXPECT_EQ(daemon.refine_plant, experiment.refine_plant);
+  EXPECT_EQ(daemon.refine_swap, experiment.refine_swap);
   EXPECT_EQ(daemon.refine_restart_share, experiment.refine_restart_share);
   EXPECT_EQ(daemon.refine_facing_prior, experiment.refine_facing_prior);
 }
@@ -137,6 +141,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   recorded.threads = 8;
   recorded.injection = 0.1 + 0.2;  // not the shortest decimal: must still read back exactly
   recorded.dofs = "gait";
+  recorded.refine_swap = true;  // not the people default: must come back from the session
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
 
   // A configuration without tracker keys: the session's settings, the configuration's threads.
@@ -152,6 +157,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_EQ(as_recorded.refine, 0.4);
   EXPECT_TRUE(as_recorded.refine_hold);
   EXPECT_TRUE(as_recorded.refine_plant);
+  EXPECT_TRUE(as_recorded.refine_swap);
   EXPECT_EQ(as_recorded.refine_restarts, 0.14);
   EXPECT_EQ(as_recorded.dofs, "gait");
   EXPECT_EQ(as_recorded.threads, 1);
@@ -196,6 +202,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {refine: 1.5}\n", "tracker.refine: must be between 0 and 0.99"},
       {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
       {cameras + "tracker: {refine_plant: 2}\n", "tracker.refine_plant"},
+      {cameras + "tracker: {refine_swap: yes please}\n", "tracker.refine_swap"},
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},

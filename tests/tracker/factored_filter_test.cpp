@@ -386,14 +386,10 @@ segments:
   EXPECT_GT(trackedYaw(0), 20);
 }
 
-// A squat: the pelvis 20 cm lower than the tracker holds it, hips and knees bent so the feet stand
-// where they stood. With big feet under a small pelvis, a pelvis step alone pushes the feet
-// through the floor and a leg angle alone lifts a foot off its silhouette, so single steps go down
-// slowly (5.9 cm short after this frame, 1.8 cm after five); a pelvis step with the feet planted
-// goes straight down.
-TEST(FactoredFilter, RefinementPlantingTheFeetFollowsASquat) {
-  const BodyModel model = parseBodyModel(R"(
-name: squatting_legs
+// A pelvis that moves up and down on two legs of hip, knee and foot, with the model's `feet`.
+BodyModel legsWithFeet() {
+  return parseBodyModel(R"(
+name: legs_with_feet
 feet: [r_foot, l_foot]
 segments:
   - name: pelvis
@@ -430,7 +426,16 @@ segments:
     offset: [0, 0, -0.42]
     shape: {type: ellipsoid, center: [0, 0.08, -0.04], radii: [0.07, 0.16, 0.05]}
 )",
-                                         "squat.yaml");
+                        "legs_with_feet.yaml");
+}
+
+// A squat: the pelvis 20 cm lower than the tracker holds it, hips and knees bent so the feet stand
+// where they stood. With big feet under a small pelvis, a pelvis step alone pushes the feet
+// through the floor and a leg angle alone lifts a foot off its silhouette, so single steps go down
+// slowly (5.9 cm short after this frame, 1.8 cm after five); a pelvis step with the feet planted
+// goes straight down.
+TEST(FactoredFilter, RefinementPlantingTheFeetFollowsASquat) {
+  const BodyModel model = legsWithFeet();
   const Rig rig = twoCameras(Eigen::Vector3d(0, 0, 0.5), 0.6);
   // Equal thigh and shin: the foot stays under the hip with the knee bent twice the hip.
   const double drop = 0.2, hip = std::acos(1 - drop / (2 * 0.42));
@@ -486,6 +491,46 @@ TEST(FactoredFilter, RefinementRestartsRecoverALimbFarFromItsSilhouette) {
   ASSERT_GT(footError(start), 1.0);
   EXPECT_LT(trackedFootError(0.3), 0.03);  // 27 draws
   EXPECT_GT(trackedFootError(0), 0.3);
+}
+
+// A stride tracked the wrong way round: the right leg back where the left one is, and the other
+// way round. Swinging one leg through to its side leaves both legs on one silhouette leg
+// half-way, so local steps stay put; exchanging the legs' angles gets there at once.
+TEST(FactoredFilter, RefinementSwappingTheLegsUndoesAStrideTrackedTheWrongWayRound) {
+  const BodyModel model = legsWithFeet();
+  // Two cameras at 480x360 (twoCameras' geometry, twice the focal length and size), so the legs
+  // cover enough pixels for the default margin.
+  Rig rig;
+  for (const CameraModel& small : twoCameras(Eigen::Vector3d(0, 0, 0.5), 0.6))
+    rig.push_back(CameraModel::lookAt(small.name, small.center(), Eigen::Vector3d(0, 0, 0.5),
+                                      Eigen::Vector3d::UnitZ(), 480, 360, 400));
+  const double deg = M_PI / 180;
+  Eigen::VectorXd truth(5), start(5);
+  // Pelvis height, then the right hip and knee, then the left's.
+  truth << 0, 30 * deg, 20 * deg, -20 * deg, 40 * deg;
+  start << 0, truth[3], truth[4], truth[1], truth[2];
+  const std::vector<SilhouetteMask> masks = silhouettes(model, rig, truth);
+  const auto worstAngleError = [&](bool swap) {
+    FilterOptions options;
+    options.refine_swap = swap;
+    const Eigen::VectorXd angles = refineAlone(model, rig, masks, start, options).tail(4);
+    return (angles - truth.tail(4)).cwiseAbs().maxCoeff() / deg;
+  };
+  EXPECT_LT(worstAngleError(true), 2);
+  EXPECT_GT(worstAngleError(false), 20);
+
+  // A body without two feet cannot swap its legs, and says so.
+  WorkerPool pool(1);
+  FilterOptions options;
+  options.refine_share = 0.5;
+  options.refine_swap = true;
+  try {
+    makeFilter("factored", pelvisAndLegs(), rig, options, pool);
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("refine_swap"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("feet"), std::string::npos) << e.what();
+  }
 }
 
 TEST(FactoredFilter, OptionNamesAreParsedAndBadOnesNamed) {

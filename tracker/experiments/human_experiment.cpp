@@ -342,6 +342,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"refine", refined ? options.refine_share : 0.0},
       {"refine_hold", refined && options.refine_hold},
       {"refine_plant", refined && options.refine_plant},
+      {"refine_swap", refined && options.refine_swap},
       {"refine_restart_share", refined ? options.refine_restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
@@ -404,6 +405,8 @@ int runHumanCommand(int argc, char** argv) {
       args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
   config.filter.refine_plant =
       args.integer("refine-plant", config.filter.refine_plant ? 1 : 0, 0, 1) == 1;
+  config.filter.refine_swap =
+      args.integer("refine-swap", config.filter.refine_swap ? 1 : 0, 0, 1) == 1;
   config.filter.refine_facing_prior =
       args.real("refine-facing-prior", config.filter.refine_facing_prior, 0.0, 1e6);
   const std::string estimate = args.text("estimate", "mean");
