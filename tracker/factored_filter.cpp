@@ -750,7 +750,10 @@ class FactoredFilter final : public PoseFilter {
       const int knee = model_.segments[foot].parent;
       for (int s : {model_.segments[knee].parent, knee, foot})
         for (int d : model_.segments[s].dofs)
-          if (model_.dofs[d].isFree()) legs[f].push_back(d);
+          if (model_.dofs[d].isFree()) {
+            legs[f].push_back(d);
+            if (f == 0) swap_is_knee_.push_back(s == knee);
+          }
     }
     if (legs[0].size() != legs[1].size())
       fail("the legs of '" + model_.feet[0] + "' and '" + model_.feet[1] + "' have " +
@@ -769,7 +772,9 @@ class FactoredFilter final : public PoseFilter {
     if (budget <= 2) return;
     Eigen::VectorXd& local = restart_pose_;
     local = q;
-    for (const auto& [a, b] : swap_pairs_) {
+    for (std::size_t k = 0; k < swap_pairs_.size(); ++k) {
+      if (options_.refine_swap_knees_only && !swap_is_knee_[k]) continue;
+      const auto [a, b] = swap_pairs_[k];
       local[a] = std::clamp(q[b], model_.dofs[a].min, model_.dofs[a].max);
       local[b] = std::clamp(q[a], model_.dofs[b].min, model_.dofs[b].max);
     }
@@ -880,6 +885,7 @@ class FactoredFilter final : public PoseFilter {
   std::vector<RestOfBody> rest_;               // per kept particle
   std::vector<std::pair<int, int>> swap_pairs_;  // refine_swap: a DOF of one leg, the other's
   std::vector<int> swap_dofs_;                   // the same, flattened
+  std::vector<bool> swap_is_knee_;               // per pair: a DOF of the knees (the feet's parents)
   int refine_evaluations_ = 0;
   std::unique_ptr<IncrementalBodyEvaluator> refiner_;  // only with a refine share
   std::vector<int> refine_dofs_;                // the free DOFs, in layer order

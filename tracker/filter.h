@@ -72,6 +72,9 @@ struct FilterOptions {
   // flipping between the two on a small difference.
   bool refine_swap = false;
   double refine_swap_margin = 500;
+  // With refine_swap: exchange only the knees' angles (the feet's parents), then search the legs as
+  // above. A kneel tracked with the wrong knee bent is this, with the hips right.
+  bool refine_swap_knees_only = false;
   // factored, with a refinement: the share of the refinement's evaluations that, before the
   // pattern search, restart one limb (the next in turn each frame: legs, arms, chest, head) from
   // random draws of its root segment's angles over their whole range (a quarter of that share);

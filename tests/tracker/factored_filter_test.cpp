@@ -519,6 +519,23 @@ TEST(FactoredFilter, RefinementSwappingTheLegsUndoesAStrideTrackedTheWrongWayRou
   EXPECT_LT(worstAngleError(true), 2);
   EXPECT_GT(worstAngleError(false), 20);
 
+  // The hips right and the knees the wrong way round: exchanging only the knees gets there,
+  // exchanging the whole legs (which puts the hips wrong) does not.
+  Eigen::VectorXd bent(5), knees_crossed(5);
+  bent << 0, 40 * deg, 10 * deg, 0, 90 * deg;
+  knees_crossed << 0, bent[1], bent[4], bent[3], bent[2];
+  const std::vector<SilhouetteMask> bent_masks = silhouettes(model, rig, bent);
+  const auto kneeError = [&](bool knees_only) {
+    FilterOptions options;
+    options.refine_swap = true;
+    options.refine_swap_knees_only = knees_only;
+    const Eigen::VectorXd angles =
+        refineAlone(model, rig, bent_masks, knees_crossed, options).tail(4);
+    return (angles - bent.tail(4)).cwiseAbs().maxCoeff() / deg;
+  };
+  EXPECT_LT(kneeError(true), 2);
+  EXPECT_GT(kneeError(false), 20);
+
   // A body without two feet cannot swap its legs, and says so.
   WorkerPool pool(1);
   FilterOptions options;

@@ -19,8 +19,8 @@ inline constexpr const char* kHumanUsage =
     "       [--keep K] [--samples S] [--layers M] [--lookahead none|root|subtree|body]\n"
     "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
     "       [--reset-every N] [--speed-scale K] [--refine SHARE] [--refine-step SPEEDS]\n"
-    "       [--refine-hold 0|1] [--refine-plant 0|1] [--refine-swap 0|1] [--refine-restarts SHARE]\n"
-    "       [--refine-facing-prior W]";
+    "       [--refine-hold 0|1] [--refine-plant 0|1] [--refine-swap 0|1] [--refine-swap-knees 0|1]\n"
+    "       [--refine-restarts SHARE] [--refine-facing-prior W]";
 int runHumanCommand(int argc, char** argv);
 
 inline constexpr const char* kBvhFitUsage =

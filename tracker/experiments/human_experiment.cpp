@@ -343,6 +343,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"refine_hold", refined && options.refine_hold},
       {"refine_plant", refined && options.refine_plant},
       {"refine_swap", refined && options.refine_swap},
+      {"refine_swap_knees_only", refined && options.refine_swap && options.refine_swap_knees_only},
       {"refine_restart_share", refined ? options.refine_restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
@@ -407,6 +408,10 @@ int runHumanCommand(int argc, char** argv) {
       args.integer("refine-plant", config.filter.refine_plant ? 1 : 0, 0, 1) == 1;
   config.filter.refine_swap =
       args.integer("refine-swap", config.filter.refine_swap ? 1 : 0, 0, 1) == 1;
+  config.filter.refine_swap_knees_only =
+      args.integer("refine-swap-knees", config.filter.refine_swap_knees_only ? 1 : 0, 0, 1) == 1;
+  if (config.filter.refine_swap_knees_only && !config.filter.refine_swap)
+    throw std::invalid_argument("--refine-swap-knees 1 needs --refine-swap 1");
   config.filter.refine_facing_prior =
       args.real("refine-facing-prior", config.filter.refine_facing_prior, 0.0, 1e6);
   const std::string estimate = args.text("estimate", "mean");
