@@ -714,20 +714,27 @@ class FactoredFilter final : public PoseFilter {
     if (local_value == -INFINITY || budget <= 2) return;
     trialScore(local, budget);
     refiner_->accept();
+    // Up to 3 poses of search per draw on the limb's angles.
+    searchAndKeep(limb.dofs, 3 * restart_draws_, 0, local, local_value, q, best, budget);
+  }
+
+  // The second half of a restart and of a swap. `local`, the evaluator's current pose, scoring
+  // `local_value`, is searched by coordinate steps on `dofs` as the refinement takes them, for up to
+  // `poses` evaluations with one kept back to restore the pose; a sweep that tries nothing (every
+  // step too small to move a DOF) ends it. The result replaces q if it beats `best` by `margin`
+  // (log-likelihood); otherwise the evaluator goes back to q.
+  void searchAndKeep(const std::vector<int>& dofs, int poses, double margin, Eigen::VectorXd& local,
+                     double local_value, Eigen::VectorXd& q, double& best, int& budget) {
     std::vector<double>& steps = restart_steps_;
     steps.clear();
-    for (int d : limb.dofs) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
-    // Coordinate steps on the limb's angles, as the refinement takes them, up to 3 poses per draw,
-    // one evaluation kept back to restore the pose; a sweep that tries nothing (every step too
-    // small to move a DOF) ends it.
+    for (int d : dofs) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
     const int search_start = budget;
-    for (int swept_from = -1;
-         search_start - budget < 3 * restart_draws_ && budget > 1 && budget != swept_from;) {
+    for (int swept_from = -1; search_start - budget < poses && budget > 1 && budget != swept_from;) {
       swept_from = budget;
-      for (std::size_t j = 0; j < limb.dofs.size() && budget > 1; ++j)
-        stepDof(limb.dofs[j], steps[j], nullptr, local, local_value, budget, 1);
+      for (std::size_t j = 0; j < dofs.size() && budget > 1; ++j)
+        stepDof(dofs[j], steps[j], nullptr, local, local_value, budget, 1);
     }
-    if (local_value > best) {
+    if (local_value > best + margin) {
       best = local_value;
       q = local;
       return;
@@ -737,14 +744,15 @@ class FactoredFilter final : public PoseFilter {
   }
 
   // FilterOptions::refine_swap: each foot's leg (its grandparent, parent and itself), DOF by DOF
-  // in model order, paired with the other's.
+  // in model order, paired with the other's: all of them searched, the knees' alone exchanged with
+  // refine_swap_knees_only.
   void findSwappedLegs() {
     const auto fail = [](const std::string& why) {
       throw std::invalid_argument("factored filter: refine_swap: " + why);
     };
     if (model_.feet.size() != 2) fail("the body model names " + std::to_string(model_.feet.size()) +
                                       " feet, not two");
-    std::vector<int> legs[2];
+    std::vector<int> legs[2], knees[2];
     for (int f = 0; f < 2; ++f) {
       const int foot = model_.segmentIndex(model_.feet[f]);
       const int knee = model_.segments[foot].parent;
@@ -752,15 +760,17 @@ class FactoredFilter final : public PoseFilter {
         for (int d : model_.segments[s].dofs)
           if (model_.dofs[d].isFree()) {
             legs[f].push_back(d);
-            if (f == 0) swap_is_knee_.push_back(s == knee);
+            if (s == knee) knees[f].push_back(d);
           }
     }
-    if (legs[0].size() != legs[1].size())
-      fail("the legs of '" + model_.feet[0] + "' and '" + model_.feet[1] + "' have " +
-           std::to_string(legs[0].size()) + " and " + std::to_string(legs[1].size()) +
-           " free DOFs");
+    if (legs[0].size() != legs[1].size() || knees[0].size() != knees[1].size())
+      fail("the legs of '" + model_.feet[0] + "' and '" + model_.feet[1] +
+           "' do not have the same free DOFs per segment (" + std::to_string(legs[0].size()) +
+           " and " + std::to_string(legs[1].size()) + ")");
+    const std::vector<int>* exchanged = options_.refine_swap_knees_only ? knees : legs;
+    for (std::size_t k = 0; k < exchanged[0].size(); ++k)
+      swap_pairs_.push_back({exchanged[0][k], exchanged[1][k]});
     for (std::size_t k = 0; k < legs[0].size(); ++k) {
-      swap_pairs_.push_back({legs[0][k], legs[1][k]});
       swap_dofs_.push_back(legs[0][k]);
       swap_dofs_.push_back(legs[1][k]);
     }
@@ -772,31 +782,16 @@ class FactoredFilter final : public PoseFilter {
     if (budget <= 2) return;
     Eigen::VectorXd& local = restart_pose_;
     local = q;
-    for (std::size_t k = 0; k < swap_pairs_.size(); ++k) {
-      if (options_.refine_swap_knees_only && !swap_is_knee_[k]) continue;
-      const auto [a, b] = swap_pairs_[k];
+    for (const auto& [a, b] : swap_pairs_) {
       local[a] = std::clamp(q[b], model_.dofs[a].min, model_.dofs[a].max);
       local[b] = std::clamp(q[a], model_.dofs[b].min, model_.dofs[b].max);
     }
-    double local_value = trialScore(local, budget);
+    const double local_value = trialScore(local, budget);
     refiner_->accept();
-    std::vector<double>& steps = restart_steps_;
-    steps.clear();
-    for (int d : swap_dofs_) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
-    const int search_start = budget;
-    const int poses = 2 * static_cast<int>(swap_dofs_.size());
-    for (int swept_from = -1; search_start - budget < poses && budget > 1 && budget != swept_from;) {
-      swept_from = budget;
-      for (std::size_t j = 0; j < swap_dofs_.size() && budget > 1; ++j)
-        stepDof(swap_dofs_[j], steps[j], nullptr, local, local_value, budget, 1);
-    }
-    if (local_value > best + options_.likelihood.beta * options_.refine_swap_margin) {
-      best = local_value;
-      q = local;
-      return;
-    }
-    trialScore(q, budget);
-    refiner_->accept();
+    // Up to 2 poses per leg angle.
+    searchAndKeep(swap_dofs_, 2 * static_cast<int>(swap_dofs_.size()),
+                  options_.likelihood.beta * options_.refine_swap_margin, local, local_value, q,
+                  best, budget);
   }
 
   struct RestartLimb {
@@ -883,9 +878,10 @@ class FactoredFilter final : public PoseFilter {
   std::vector<WorkerScratch> scratch_;
   std::vector<std::vector<int>> descendants_;  // per segment
   std::vector<RestOfBody> rest_;               // per kept particle
-  std::vector<std::pair<int, int>> swap_pairs_;  // refine_swap: a DOF of one leg, the other's
-  std::vector<int> swap_dofs_;                   // the same, flattened
-  std::vector<bool> swap_is_knee_;               // per pair: a DOF of the knees (the feet's parents)
+  // FilterOptions::refine_swap: the DOF pairs exchanged (one leg's, the other's), and the DOFs
+  // searched after (both legs').
+  std::vector<std::pair<int, int>> swap_pairs_;
+  std::vector<int> swap_dofs_;
   int refine_evaluations_ = 0;
   std::unique_ptr<IncrementalBodyEvaluator> refiner_;  // only with a refine share
   std::vector<int> refine_dofs_;                // the free DOFs, in layer order
