@@ -148,6 +148,7 @@ class FactoredFilter final : public PoseFilter {
     candidates_.resize(candidates_per_layer_);
     candidate_spans_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size() * max_rows_);
     candidate_footprints_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size());
+    candidate_counts_.resize(candidate_footprints_.size());
     const std::size_t max_nodes = model.segments.size() + layers_.size() * options.keep;
     nodes_.reserve(max_nodes);
     node_footprints_.reserve(max_nodes * rig.size());
@@ -183,10 +184,12 @@ class FactoredFilter final : public PoseFilter {
         pool_.parallelFor(parents, [&](int p, int worker) { placeRest(layer, p, masks, worker); });
         for (const RestOfBody& rest : rest_) estimate.segment_renders += rest.renders;
       }
-      pool_.parallelFor(count, [&](int i, int worker) { evaluate(layer, i, masks, worker); });
+      groupSamePoses(layer, count);
+      pool_.parallelFor(static_cast<int>(pose_groups_.size()),
+                        [&](int g, int worker) { evaluateGroup(layer, g, count, masks, worker); });
       estimate.evaluations += count;
-      estimate.segment_renders +=
-          static_cast<long>(count) * (layer.lookahead ? descendants_[layer.segment].size() + 1 : 1);
+      estimate.segment_renders += static_cast<long>(pose_groups_.size()) +
+          static_cast<long>(count) * (layer.lookahead ? descendants_[layer.segment].size() : 0);
       keepBest(layer, count);
     }
     if (refiner_) refine(masks, estimate);
@@ -331,13 +334,55 @@ class FactoredFilter final : public PoseFilter {
     return count;
   }
 
-  void evaluate(const Layer& layer, int i, const std::vector<SilhouetteMask>& masks, int worker) {
+  // Candidates whose segment lands at the same pose (the same parent segment node and the same
+  // values of the segment's DOFs) share one rasterization, and one node if several are kept. This
+  // is common: kept particles often agree on the layer's DOF and on their ancestors, and then
+  // their samples coincide (on the hand, a quarter of a layer's candidates).
+  void groupSamePoses(const Layer& layer, int count) {
+    const Segment& seg = model_.segments[layer.segment];
+    pose_groups_.clear();
+    pose_group_.resize(count);
+    auto parent_node = [&](int i) {
+      return seg.parent < 0 ? -1 : particles_[candidates_[i].parent].node[seg.parent];
+    };
+    for (int i = 0; i < count; ++i) {
+      const Eigen::VectorXd& q = candidates_[i].q;
+      const int node = parent_node(i);
+      std::size_t g = 0;
+      for (; g < pose_groups_.size(); ++g) {
+        const int first = pose_groups_[g];
+        const Eigen::VectorXd& other = candidates_[first].q;
+        if (parent_node(first) == node &&
+            std::all_of(seg.dofs.begin(), seg.dofs.end(), [&](int d) { return q[d] == other[d]; }))
+          break;
+      }
+      if (g == pose_groups_.size()) pose_groups_.push_back(i);
+      pose_group_[i] = static_cast<int>(g);
+    }
+  }
+
+  void evaluateGroup(const Layer& layer, int g, int count, const std::vector<SilhouetteMask>& masks,
+                     int worker) {
+    const int first = pose_groups_[g];
+    evaluate(layer, first, -1, masks, worker);
+    for (int i = first + 1; i < count; ++i)
+      if (pose_group_[i] == g) evaluate(layer, i, first, masks, worker);
+  }
+
+  // Scores candidate i; `same_pose` is an already placed candidate whose segment pose (and so
+  // footprints) it shares, or -1.
+  void evaluate(const Layer& layer, int i, int same_pose, const std::vector<SilhouetteMask>& masks,
+                int worker) {
     Candidate& cand = candidates_[i];
     const Particle& parent = particles_[cand.parent];
     const int s = layer.segment;
     const int parent_segment = model_.segments[s].parent;
-    const Eigen::Isometry3d local = localTransform(model_, s, cand.q);
-    cand.pose = parent_segment < 0 ? local : nodes_[parent.node[parent_segment]].pose * local;
+    if (same_pose < 0) {
+      const Eigen::Isometry3d local = localTransform(model_, s, cand.q);
+      cand.pose = parent_segment < 0 ? local : nodes_[parent.node[parent_segment]].pose * local;
+    } else {
+      cand.pose = candidates_[same_pose].pose;
+    }
 
     WorkerScratch& scratch = scratch_[worker];
     // The parent's placed segments are found once, then copied per camera (no push_back per
@@ -354,11 +399,25 @@ class FactoredFilter final : public PoseFilter {
       for (std::size_t k = 0; k < placed.size(); ++k)
         explained[k] = node_footprints_[placed[k] + c];
     }
-    RowSpan* spans[kMaxCameras];
-    for (std::size_t c = 0; c < rig_.size(); ++c) spans[c] = candidateSpans(i, c);
-    const PixelCounts counts =
-        observeSegment(model_.segments[s].shape, cand.pose, rig_, masks, scratch.rasterizer, spans,
-                       candidateFootprints(i), scratch.explained);
+    // Per camera, so candidates of the same pose recount only the rows their chain covers.
+    PixelCounts counts;
+    Footprint* footprints = candidateFootprints(i);
+    PixelCounts* camera_counts = &candidate_counts_[i * rig_.size()];
+    for (std::size_t c = 0; c < rig_.size(); ++c) {
+      const Footprint* explained = scratch.explained[c].data();
+      const int explained_count = static_cast<int>(scratch.explained[c].size());
+      if (same_pose < 0) {
+        footprints[c] = scratch.rasterizer.rasterize(model_.segments[s].shape, cand.pose, rig_[c],
+                                                     candidateSpans(i, c));
+        camera_counts[c] = countFootprint(masks[c], footprints[c], explained, explained_count);
+      } else {
+        footprints[c] = candidateFootprints(same_pose)[c];
+        camera_counts[c] = recountFootprint(masks[c], footprints[c],
+                                            candidate_counts_[same_pose * rig_.size() + c],
+                                            explained, explained_count);
+      }
+      counts += camera_counts[c];
+    }
     cand.log_weight += logLikelihood(options_.likelihood, counts);
     cand.selection = cand.log_weight;
     if (!layer.lookahead) return;
@@ -450,13 +509,19 @@ class FactoredFilter final : public PoseFilter {
       return wa > wb || (wa == wb && a < b);
     });
     next_particles_.resize(kept);
+    group_node_.assign(pose_groups_.size(), -1);
     for (int k = 0; k < kept; ++k) {
       const Candidate& cand = candidates_[order_[k]];
       Particle& out = next_particles_[k];
       out.q = cand.q;
       out.log_weight = cand.log_weight;
       out.node = particles_[cand.parent].node;
-      const int node = addNode(cand.pose);
+      int& node = group_node_[pose_group_[order_[k]]];
+      if (node >= 0) {  // the same segment pose as a particle kept before: share its node
+        out.node[layer.segment] = node;
+        continue;
+      }
+      node = addNode(cand.pose);
       const Footprint* from = candidateFootprints(order_[k]);
       for (std::size_t c = 0; c < rig_.size(); ++c) {
         Footprint f = from[c];
@@ -870,7 +935,11 @@ class FactoredFilter final : public PoseFilter {
   std::vector<Candidate> candidates_;
   std::vector<RowSpan> candidate_spans_;
   std::vector<Footprint> candidate_footprints_;
+  std::vector<PixelCounts> candidate_counts_;  // per candidate and camera
   std::vector<int> order_;
+  std::vector<int> pose_groups_;  // per group of same-pose candidates: its first candidate
+  std::vector<int> pose_group_;   // per candidate: its group
+  std::vector<int> group_node_;   // per group: the node of its first kept candidate, or -1
   std::vector<Node> nodes_;
   std::vector<Footprint> node_footprints_;
   std::vector<RowSpan> span_arena_;

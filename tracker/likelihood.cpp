@@ -21,26 +21,53 @@ void countRows(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
   }
 }
 
+// One row's span [a, b) under explained footprints. With kWholeSpan its area and silhouette
+// pixels are counted, and prefix counts at its ends are reused (an explained overlap usually
+// shares an endpoint with the span); without, only the explained part is counted (a footprint
+// whose whole counts are known, see recountFootprint).
+template <bool kWholeSpan>
+class SpanRow {
+ public:
+  SpanRow(const Row& row, int a, int b, long& area, long& silhouette) : row_(row), a_(a), b_(b) {
+    if constexpr (kWholeSpan) {
+      ca_ = row.before(a);
+      cb_ = row.before(b);
+      area += b - a;
+      silhouette += cb_ - ca_;
+    }
+  }
+  int before(int x) const {
+    if constexpr (kWholeSpan) {
+      if (x == a_) return ca_;
+      if (x == b_) return cb_;
+    }
+    return row_.before(x);
+  }
+
+ private:
+  const Row& row_;
+  int a_, b_, ca_ = 0, cb_ = 0;
+};
+
 // The same with one explained footprint `e` active over all the rows (the common case: the
-// parent segment or the palm). `explained` gathers the silhouette pixels of the overlap. The
-// overlap usually shares an endpoint with the span, whose count is then reused.
+// parent segment or the palm). `explained` gathers the silhouette pixels of the overlap.
+template <bool kWholeSpan>
 void countRowsMinusOne(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
                        const Footprint& e, long& area, long& silhouette, long& explained) {
   const RowSpan* es = e.spans + (y - e.y0);
   for (Row row = mask.row(y); y < end; ++y, ++spans, ++es, row.next()) {
     const int a = spans->x0, b = spans->x1;
     if (a >= b) continue;
-    const int ca = row.before(a), cb = row.before(b);
-    area += b - a;
-    silhouette += cb - ca;
+    const SpanRow<kWholeSpan> span(row, a, b, area, silhouette);
     const int lo = std::max(a, static_cast<int>(es->x0));
     const int hi = std::min(b, static_cast<int>(es->x1));
     if (lo >= hi) continue;
-    explained += (hi == b ? cb : row.before(hi)) - (lo == a ? ca : row.before(lo));
+    explained += span.before(hi) - span.before(lo);
   }
 }
 
 // Two explained footprints (the next most common case), kept in registers.
+template <bool kWholeSpan>
 void countRowsMinusTwo(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
                        const Footprint& e, const Footprint& g, long& area, long& silhouette,
                        long& explained) {
@@ -49,9 +76,7 @@ void countRowsMinusTwo(const SilhouetteMask& mask, int y, int end, const RowSpan
   for (Row row = mask.row(y); y < end; ++y, ++spans, ++es, ++gs, row.next()) {
     const int a = spans->x0, b = spans->x1;
     if (a >= b) continue;
-    const int ca = row.before(a), cb = row.before(b);
-    area += b - a;
-    silhouette += cb - ca;
+    const SpanRow<kWholeSpan> span(row, a, b, area, silhouette);
     int lo0 = std::max(a, static_cast<int>(es->x0)), hi0 = std::min(b, static_cast<int>(es->x1));
     int lo1 = std::max(a, static_cast<int>(gs->x0)), hi1 = std::min(b, static_cast<int>(gs->x1));
     if (lo0 >= hi0) {  // only the second, if any
@@ -63,19 +88,20 @@ void countRowsMinusTwo(const SilhouetteMask& mask, int y, int end, const RowSpan
         std::swap(hi0, hi1);
       }
       if (lo1 > hi0) {  // disjoint: count the first now, the second below
-        explained += (hi0 == b ? cb : row.before(hi0)) - (lo0 == a ? ca : row.before(lo0));
+        explained += span.before(hi0) - span.before(lo0);
         lo0 = lo1;
       }
       hi0 = std::max(hi0, hi1);
     }
     if (lo0 >= hi0) continue;
-    explained += (hi0 == b ? cb : row.before(hi0)) - (lo0 == a ? ca : row.before(lo0));
+    explained += span.before(hi0) - span.before(lo0);
   }
 }
 
 // Three or more explained footprints active over all the rows: per row, the parts of the span
 // they cover, whose union is counted once. They mostly overlap, so they are merged into one
 // interval as they come; only rows where some stay apart take the sort.
+template <bool kWholeSpan>
 void countRowsMinusMany(const SilhouetteMask& mask, int y, int end, const RowSpan* spans,
                         const Footprint* const* active, int n_active, long& area, long& silhouette,
                         long& explained) {
@@ -104,14 +130,10 @@ void countRowsMinusMany(const SilhouetteMask& mask, int y, int end, const RowSpa
         cut[n_apart++] = {static_cast<int16_t>(lo), static_cast<int16_t>(hi)};
       }
     }
-    const int ca = row.before(a), cb = row.before(b);
-    area += b - a;
-    silhouette += cb - ca;
+    const SpanRow<kWholeSpan> span(row, a, b, area, silhouette);
     if (u_lo == b) continue;
-    // Endpoints at the span's ends reuse its counts.
-    auto before = [&](int x) { return x == a ? ca : x == b ? cb : row.before(x); };
     if (n_apart == 0) {
-      explained += before(u_hi) - before(u_lo);
+      explained += span.before(u_hi) - span.before(u_lo);
       continue;
     }
     // Sorted by start, then the union walked once.
@@ -127,19 +149,18 @@ void countRowsMinusMany(const SilhouetteMask& mask, int y, int end, const RowSpa
       const int lo = std::max(covered_to, static_cast<int>(cut[i].x0));
       const int hi = cut[i].x1;
       if (hi > lo) {
-        explained += before(hi) - before(lo);
+        explained += span.before(hi) - span.before(lo);
         covered_to = hi;
       }
     }
   }
 }
 
-}  // namespace
-
-PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprint,
-                           const Footprint* explained, int explained_count) {
-  PixelCounts counts;
-  if (footprint.empty()) return counts;
+// Walks the footprint's rows in bands over which the set of explained footprints covering them
+// does not change (see countFootprint; without kWholeSpan, see recountFootprint).
+template <bool kWholeSpan>
+void countBands(const SilhouetteMask& mask, const Footprint& footprint, const Footprint* explained,
+                int explained_count, long& area, long& silhouette, long& already) {
   // Only explained footprints whose boxes touch this one matter (usually the parent and a
   // neighbour). The rows are walked in bands over which the set of explained footprints covering
   // them does not change, so each band runs a loop specialised to that set's size (mostly 0 or 1).
@@ -153,9 +174,9 @@ PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprin
     for (; j > 0 && pending[j - 1]->y0 > e.y0; --j) pending[j] = pending[j - 1];
     pending[j] = &e;
   }
+  if (!kWholeSpan && n_pending == 0) return;
   const Footprint* active[kMaxOverlapping];
   int n_active = 0, next_pending = 0;
-  long area = 0, silhouette = 0, already = 0;
   for (int y = footprint.y0; y < footprint.y1;) {
     while (next_pending < n_pending && pending[next_pending]->y0 <= y)
       active[n_active++] = pending[next_pending++];
@@ -171,24 +192,42 @@ PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprin
     }
     const RowSpan* spans = footprint.spans + (y - footprint.y0);
     if (n_active == 0) {
-      countRows(mask, y, end, spans, area, silhouette);
-      y = end;
-      continue;
+      if constexpr (kWholeSpan) countRows(mask, y, end, spans, area, silhouette);
+    } else if (n_active == 1) {
+      countRowsMinusOne<kWholeSpan>(mask, y, end, spans, *active[0], area, silhouette, already);
+    } else if (n_active == 2) {
+      countRowsMinusTwo<kWholeSpan>(mask, y, end, spans, *active[0], *active[1], area, silhouette,
+                                    already);
+    } else {
+      countRowsMinusMany<kWholeSpan>(mask, y, end, spans, active, n_active, area, silhouette,
+                                     already);
     }
-    if (n_active == 1) {
-      countRowsMinusOne(mask, y, end, spans, *active[0], area, silhouette, already);
-      y = end;
-      continue;
-    }
-    if (n_active == 2)
-      countRowsMinusTwo(mask, y, end, spans, *active[0], *active[1], area, silhouette, already);
-    else
-      countRowsMinusMany(mask, y, end, spans, active, n_active, area, silhouette, already);
     y = end;
   }
+}
+
+}  // namespace
+
+PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprint,
+                           const Footprint* explained, int explained_count) {
+  PixelCounts counts;
+  if (footprint.empty()) return counts;
+  long area = 0, silhouette = 0, already = 0;
+  countBands<true>(mask, footprint, explained, explained_count, area, silhouette, already);
   counts.area = area;
   counts.outside = area - silhouette;
   counts.matched = silhouette - already;
+  return counts;
+}
+
+PixelCounts recountFootprint(const SilhouetteMask& mask, const Footprint& footprint,
+                             const PixelCounts& counted, const Footprint* explained,
+                             int explained_count) {
+  PixelCounts counts = counted;
+  if (footprint.empty()) return counts;
+  long area = 0, silhouette = 0, already = 0;
+  countBands<false>(mask, footprint, explained, explained_count, area, silhouette, already);
+  counts.matched = counted.area - counted.outside - already;
   return counts;
 }
 

@@ -40,6 +40,13 @@ struct PixelCounts {
 PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprint,
                            const Footprint* explained, int explained_count);
 
+// The counts of a footprint already counted against another chain (`counted`) against this one:
+// its area and silhouette pixels are taken from `counted`, so only the rows `explained` covers
+// are walked.
+PixelCounts recountFootprint(const SilhouetteMask& mask, const Footprint& footprint,
+                             const PixelCounts& counted, const Footprint* explained,
+                             int explained_count);
+
 inline double logLikelihood(const LikelihoodParams& params, const PixelCounts& counts) {
   return params.beta * (static_cast<double>(counts.matched) -
                         params.outside_weight * static_cast<double>(counts.outside));

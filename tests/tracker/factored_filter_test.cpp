@@ -1,5 +1,5 @@
 // The factored particle filter: it finds a known static pose from a perturbed start, spends exactly
-// its budget, does not depend on the thread count, recovers a misplaced joint by injection (of
+// its budget, rasterizes candidates at one pose once, does not depend on the thread count, recovers a misplaced joint by injection (of
 // one DOF, or of a whole segment's angles), and its full-body refinement corrects the layers (and,
 // holding a segment's children, a turned pelvis).
 #include <gtest/gtest.h>
@@ -48,6 +48,22 @@ TEST(FactoredFilter, ResultsDoNotDependOnTheThreadCount) {
   options.injection_share = 0.1;  // exercise the random part too
   options.seed = 77;
   testing_support::expectSameEstimatesForThreadCounts("factored", options, {1, 2, 3}, 6);
+}
+
+TEST(FactoredFilter, CandidatesAtOnePoseShareOneRasterization) {
+  // From a reset every kept particle carries the same angles of the fingers not yet sampled, so the
+  // first layer of each finger after the first draws the same 5 values from each of the 5 parents
+  // on the same palm: 5 poses for 25 candidates, each rasterized once.
+  HandScene scene;
+  WorkerPool pool(1);
+  FilterOptions options;
+  options.injection_share = 0;
+  auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
+  const Eigen::VectorXd q = generateMotion(scene.model, 1, 3)[0];
+  filter->reset(q);
+  const FrameEstimate e = filter->step(scene.masks(q));
+  EXPECT_EQ(e.evaluations, 375);
+  EXPECT_LE(e.segment_renders, 1 + 375 - 4 * 20);  // the palm, then at least 4 × 20 shared
 }
 
 TEST(FactoredFilter, LookAheadKeepsTheBudgetAndThreadIndependence) {

@@ -81,7 +81,7 @@ TEST(Likelihood, ChainCreditsEachSilhouettePixelAtMostOnceOverRandomFootprints) 
   }
 }
 
-TEST(Likelihood, CountsMatchAPixelByPixelReferenceForOverlappingConvexFootprints) {
+TEST(Likelihood, CountsAndRecountsMatchAPixelByPixelReferenceForOverlappingConvexFootprints) {
   // Random row spans (empty rows included) under up to 7 explained footprints covering the same
   // area, so every per-row case of the count (nothing, one, two and more explained) is exercised.
   std::mt19937 rng(17);
@@ -133,6 +133,12 @@ TEST(Likelihood, CountsMatchAPixelByPixelReferenceForOverlappingConvexFootprints
     ASSERT_EQ(got.area, expected.area) << "trial " << trial;
     ASSERT_EQ(got.outside, expected.outside) << "trial " << trial;
     ASSERT_EQ(got.matched, expected.matched) << "trial " << trial;
+    // Recounted from the footprint's counts over an empty chain: only the explained rows walked.
+    const PixelCounts alone = countFootprint(mask, f, nullptr, 0);
+    const PixelCounts recounted = recountFootprint(mask, f, alone, explained.data(), n);
+    ASSERT_EQ(recounted.area, expected.area) << "trial " << trial;
+    ASSERT_EQ(recounted.outside, expected.outside) << "trial " << trial;
+    ASSERT_EQ(recounted.matched, expected.matched) << "trial " << trial;
   }
 }
 
