@@ -18,7 +18,8 @@ inline constexpr const char* kHumanUsage =
     "       [--start-offset none|arm60|body30cm] [--injection SHARE] [--inject dof|segment]\n"
     "       [--keep K] [--samples S] [--layers M] [--lookahead none|root|subtree|body]\n"
     "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
-    "       [--reset-every N] [--speed-scale K] [--refine SHARE] [--refine-step SPEEDS]\n"
+    "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
+    "       [--refine SHARE] [--refine-step SPEEDS]\n"
     "       [--refine-hold 0|1] [--refine-plant 0|1] [--refine-swap 0|1] [--refine-swap-knees 0|1]\n"
     "       [--refine-restarts SHARE] [--refine-facing-prior W]";
 int runHumanCommand(int argc, char** argv);

@@ -237,7 +237,13 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     const Eigen::Vector3d axis = points[l_hip] - points[r_hip];
     return std::atan2(axis.y(), axis.x());
   };
+  std::mt19937_64 skip_rng(config.seed ^ 0x5c1b'7a7e'0000'0000ULL);  // apart from the filter's
+  std::vector<int> tracked_frames;  // the frames stepped and scored
   for (int f = 0; f < frames; ++f) {
+    if (config.skip_rate > 0 && f > 0 &&
+        std::uniform_real_distribution<double>(0, 1)(skip_rng) < config.skip_rate)
+      continue;
+    tracked_frames.push_back(f);
     const bool realistic = config.noise == "realistic";
     // A limb missed by segmentation in one camera for 5 frames out of every 50.
     if (realistic && missed_limb >= 0 && f % 50 >= 20 && f % 50 < 25) renderer.hideSegment(0, missed_limb);
@@ -296,15 +302,17 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     }
   }
 
+  // Averages over the frames tracked (all of them unless some were skipped).
+  const int scored = static_cast<int>(tracked_frames.size());
   nlohmann::json joints = nlohmann::json::object();
-  for (std::size_t p = 0; p < per_joint.size(); ++p) joints[model.points[p].name] = per_joint[p] / frames;
+  for (std::size_t p = 0; p < per_joint.size(); ++p) joints[model.points[p].name] = per_joint[p] / scored;
   double mpjpe = 0, worst = 0, residual = 0;
   int lost = 0, recovery = -1;
-  for (int f = 0; f < frames; ++f) {
-    mpjpe += frame_error[f];
-    worst = std::max(worst, frame_error[f]);
-    lost += frame_error[f] > 100.0;
-    if (recovery < 0 && frame_error[f] < 50.0) recovery = f;
+  for (int i = 0; i < scored; ++i) {
+    mpjpe += frame_error[i];
+    worst = std::max(worst, frame_error[i]);
+    lost += frame_error[i] > 100.0;
+    if (recovery < 0 && frame_error[i] < 50.0) recovery = tracked_frames[i];
   }
   // Per limb: mean error, frames lost (limb error over 100 mm), and for an arm misplaced at the
   // start, the first frame that arm is back under 50 mm.
@@ -313,14 +321,14 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   for (std::size_t l = 0; l < limbs.size(); ++l) {
     double limb_sum = 0;
     int limb_lost_frames = 0;
-    for (int f = 0; f < frames; ++f) {
-      limb_sum += limb_error[l][f];
-      limb_lost_frames += limb_error[l][f] > 100.0;
+    for (int i = 0; i < scored; ++i) {
+      limb_sum += limb_error[l][i];
+      limb_lost_frames += limb_error[l][i] > 100.0;
       if (config.start_offset == "arm60" && static_cast<int>(l) == left_arm &&
-          arm_recovery < 0 && limb_error[l][f] < 50.0)
-        arm_recovery = f;
+          arm_recovery < 0 && limb_error[l][i] < 50.0)
+        arm_recovery = tracked_frames[i];
     }
-    per_limb[limbs[l].name] = limb_sum / frames;
+    per_limb[limbs[l].name] = limb_sum / scored;
     limb_lost[limbs[l].name] = limb_lost_frames;
   }
   int residual_count = 0;
@@ -345,20 +353,24 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"refine_swap", refined && options.refine_swap},
       {"refine_swap_knees_only", refined && options.refine_swap && options.refine_swap_knees_only},
       {"refine_restart_share", refined ? options.refine_restart_share : 0.0},
-      {"evals_per_frame", static_cast<double>(evaluations) / frames},
-      {"segment_renders_per_frame", static_cast<double>(renders) / frames},
-      {"mpjpe_mm", mpjpe / frames},
+      {"evals_per_frame", static_cast<double>(evaluations) / scored},
+      {"segment_renders_per_frame", static_cast<double>(renders) / scored},
+      {"mpjpe_mm", mpjpe / scored},
       {"per_joint_mm", joints},
       {"per_limb_mm", per_limb},
       {"limb_lost_frames", limb_lost},
       {"max_frame_mpjpe_mm", worst},
       {"lost_frames", lost},
       {"lost_frame_causes", lost_causes},
-      {"seconds_per_frame", tracking_seconds / frames},
+      {"seconds_per_frame", tracking_seconds / scored},
       {"ground_truth_fit_residual_mm", residual_count ? residual / residual_count : 0.0},
   };
   if (config.reset_every > 0) out["reset_every"] = config.reset_every;
   if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
+  if (config.skip_rate > 0) {
+    out["skip_rate"] = config.skip_rate;
+    out["tracked_frames"] = scored;
+  }
   // With --trace, which scores the truth as well: lost frames that are a failure of the search
   // (the truth scores higher) rather than an ambiguity of the silhouettes.
   if (scorer) out["lost_frames_truth_ahead"] = lost_truth_ahead;
@@ -387,6 +399,7 @@ int runHumanCommand(int argc, char** argv) {
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
   config.reset_every = static_cast<int>(args.integer("reset-every", 0, 0, 1'000'000));
   config.speed_scale = args.real("speed-scale", 1.0, 0.01, 100.0);
+  config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");

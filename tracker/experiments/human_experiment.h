@@ -57,6 +57,10 @@ struct HumanExperimentConfig {
   // The tracker's speed limits are this times the model's, by which the truth is bounded: below 1,
   // a subject who moves faster than the tracker allows; above 1, a looser motion prior.
   double speed_scale = 1;
+  // A live tracker that cannot keep up: each frame after the first is skipped (not tracked, not
+  // scored) with this probability, from its own seeded stream, as mocapd drops the frame sets
+  // that arrive while a step runs. The tracker's motion model still assumes one frame per step.
+  double skip_rate = 0;
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none

@@ -1,6 +1,7 @@
 // The human experiment's scoring: per-limb errors point at the limb that is wrong, lost frames are
 // counted by what went wrong, --reset-every restarts from the truth, --speed-scale slows only the
-// tracker, and bad flags are refused with their names.
+// tracker, --skip-rate leaves frames untracked and unscored, and bad flags are refused with their
+// names.
 #include "tracker/experiments/human_experiment.h"
 
 #include <unistd.h>
@@ -114,14 +115,20 @@ TEST(HumanExperiment, BadOptionsAreNamed) {
 // --speed-scale changes the tracker's speed limits and not the truth's: the layers alone (no
 // refinement, no injection: every candidate within its speed limit of its parent) allowed a
 // twentieth of the subject's speed fall behind the walk, on the same ground truth.
-TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+// The first frames of the walk in 2 cameras, tracked by the layers alone (no refinement).
+HumanExperimentConfig shortWalk(int frames) {
   HumanExperimentConfig config;
   config.motion_path = kWalk;
-  config.frames = 25;
+  config.frames = frames;
   config.cameras = 2;
   config.threads = 1;
   config.filter.refine_share = 0;
+  return config;
+}
+
+TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config = shortWalk(25);
   config.filter.injection_share = 0;
   const nlohmann::json as_is = runHumanExperiment(config);
   config.speed_scale = 0.05;
@@ -131,6 +138,22 @@ TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
   EXPECT_EQ(slowed["ground_truth_fit_residual_mm"], as_is["ground_truth_fit_residual_mm"]);
   EXPECT_GT(slowed["mpjpe_mm"].get<double>(), 1.2 * as_is["mpjpe_mm"].get<double>())
       << as_is["mpjpe_mm"] << " vs " << slowed["mpjpe_mm"];
+}
+
+TEST(HumanExperiment, SkippedFramesAreNeitherTrackedNorScored) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config = shortWalk(20);
+  config.evaluations = 300;
+  const nlohmann::json every = runHumanExperiment(config);
+  config.skip_rate = 0.5;
+  const nlohmann::json skipping = runHumanExperiment(config);
+  EXPECT_FALSE(every.contains("tracked_frames"));
+  const int tracked = skipping["tracked_frames"].get<int>();
+  EXPECT_GT(tracked, 1);
+  EXPECT_LT(tracked, 20);
+  EXPECT_EQ(skipping["frames"], 20);
+  // Per tracked frame: a step spends the same budget whether or not frames were skipped before it.
+  EXPECT_EQ(skipping["evals_per_frame"], every["evals_per_frame"]);
 }
 
 }  // namespace
