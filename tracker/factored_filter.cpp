@@ -337,7 +337,7 @@ class FactoredFilter final : public PoseFilter {
   // Candidates whose segment lands at the same pose (the same parent segment node and the same
   // values of the segment's DOFs) share one rasterization, and one node if several are kept. This
   // is common: kept particles often agree on the layer's DOF and on their ancestors, and then
-  // their samples coincide (on the hand, a quarter of a layer's candidates).
+  // their samples coincide (two thirds of a hand layer's candidates, half of a human one's).
   void groupSamePoses(const Layer& layer, int count) {
     const Segment& seg = model_.segments[layer.segment];
     pose_groups_.clear();

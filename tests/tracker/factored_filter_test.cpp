@@ -1,7 +1,7 @@
 // The factored particle filter: it finds a known static pose from a perturbed start, spends exactly
-// its budget, rasterizes candidates at one pose once, does not depend on the thread count, recovers a misplaced joint by injection (of
-// one DOF, or of a whole segment's angles), and its full-body refinement corrects the layers (and,
-// holding a segment's children, a turned pelvis).
+// its budget, rasterizes candidates at one pose once, does not depend on the thread count,
+// recovers a misplaced joint by injection (of one DOF, or of a whole segment's angles), and its
+// full-body refinement corrects the layers (and, holding a segment's children, a turned pelvis).
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
