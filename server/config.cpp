@@ -206,8 +206,14 @@ class ConfigParser {
     if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
     if (tracker["refine_plant"])
       t.refine_plant = boolean(tracker["refine_plant"], "tracker.refine_plant");
-    if (tracker["refine_swap"])
-      t.refine_swap = boolean(tracker["refine_swap"], "tracker.refine_swap");
+    if (const YAML::Node swap = tracker["refine_swap"]) {
+      // true: the whole legs exchanged; knees: only the knees (FilterOptions::refine_swap_knees_only).
+      t.refine_swap_knees = swap.IsScalar() && swap.Scalar() == "knees";
+      bool on = t.refine_swap_knees;
+      if (!on && !YAML::convert<bool>::decode(swap, on))
+        fail(swap, "tracker.refine_swap", "expected true, false or knees, got '" + swap.Scalar() + "'");
+      t.refine_swap = on;
+    }
     if (tracker["refine_restarts"])
       t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
     if (tracker["refine_facing_prior"])
@@ -386,6 +392,7 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.refine_hold = refine_hold;
   options.refine_plant = refine_plant;
   options.refine_swap = refine_swap;
+  options.refine_swap_knees_only = refine_swap && refine_swap_knees;
   options.refine_restart_share = refine_restarts;
   options.refine_facing_prior = refine_facing_prior;
   return options;
@@ -410,7 +417,7 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"refine", exact(refine)},
           {"refine_hold", refine_hold ? "true" : "false"},
           {"refine_plant", refine_plant ? "true" : "false"},
-          {"refine_swap", refine_swap ? "true" : "false"},
+          {"refine_swap", !refine_swap ? "false" : refine_swap_knees ? "knees" : "true"},
           {"refine_restarts", exact(refine_restarts)},
           {"refine_facing_prior", exact(refine_facing_prior)},
           {"dofs", dofs}};

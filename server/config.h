@@ -43,6 +43,7 @@ struct TrackerSettings {
   bool refine_hold = false;
   bool refine_plant = false;
   bool refine_swap = false;
+  bool refine_swap_knees = false;  // with refine_swap: only the knees exchanged (key value `knees`)
   double refine_restarts = 0;
   double refine_facing_prior = 0;
   // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the

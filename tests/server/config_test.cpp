@@ -66,6 +66,29 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   EXPECT_EQ(plain.tracker.dofs, "all");
 }
 
+// refine_swap: knees exchanges only the knees (the option measured in docs/human.md); true the
+// whole legs. A recorded session keeps which.
+TEST(ConfigTest, RefineSwapKneesExchangesOnlyTheKnees) {
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  const ServerConfig knees =
+      parseConfig(cameras + "tracker: {refine_swap: knees}\n", "test.yaml", ".");
+  EXPECT_TRUE(knees.tracker.refine_swap);
+  EXPECT_TRUE(knees.tracker.filterOptions().refine_swap);
+  EXPECT_TRUE(knees.tracker.filterOptions().refine_swap_knees_only);
+  const ServerConfig legs = parseConfig(cameras + "tracker: {refine_swap: true}\n", "test.yaml", ".");
+  EXPECT_TRUE(legs.tracker.filterOptions().refine_swap);
+  EXPECT_FALSE(legs.tracker.filterOptions().refine_swap_knees_only);
+
+  const ServerConfig plain = parseConfig(cameras, "replay.yaml", ".");
+  const TrackerSettings replayed =
+      replayTrackerSettings(plain, knees.tracker.keyValues(), "session/manifest.yaml");
+  EXPECT_TRUE(replayed.filterOptions().refine_swap_knees_only);
+  const ServerConfig off = parseConfig(cameras + "tracker: {refine_swap: false}\n", "r.yaml", ".");
+  EXPECT_FALSE(replayTrackerSettings(off, knees.tracker.keyValues(), "session/manifest.yaml")
+                   .filterOptions()
+                   .refine_swap_knees_only);  // the configuration's own key wins
+}
+
 TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   const ServerConfig person = parseConfig(cameras + "body_model: builtin:human\n", "test.yaml", ".");
@@ -202,7 +225,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {refine: 1.5}\n", "tracker.refine: must be between 0 and 0.99"},
       {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
       {cameras + "tracker: {refine_plant: 2}\n", "tracker.refine_plant"},
-      {cameras + "tracker: {refine_swap: yes please}\n", "tracker.refine_swap"},
+      {cameras + "tracker: {refine_swap: yes please}\n",
+       "tracker.refine_swap: expected true, false or knees, got 'yes please'"},
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},
