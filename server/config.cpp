@@ -207,11 +207,13 @@ class ConfigParser {
     if (tracker["refine_plant"])
       t.refine_plant = boolean(tracker["refine_plant"], "tracker.refine_plant");
     if (const YAML::Node swap = tracker["refine_swap"]) {
-      // true: the whole legs exchanged; knees: only the knees (FilterOptions::refine_swap_knees_only).
+      // true: the whole legs exchanged; knees: only the knees
+      // (FilterOptions::refine_swap_knees_only).
       t.refine_swap_knees = swap.IsScalar() && swap.Scalar() == "knees";
       bool on = t.refine_swap_knees;
       if (!on && !YAML::convert<bool>::decode(swap, on))
-        fail(swap, "tracker.refine_swap", "expected true, false or knees, got '" + swap.Scalar() + "'");
+        fail(swap, "tracker.refine_swap",
+             "expected true, false or knees, got '" + swap.Scalar() + "'");
       t.refine_swap = on;
     }
     if (tracker["refine_restarts"])

@@ -75,7 +75,8 @@ TEST(ConfigTest, RefineSwapKneesExchangesOnlyTheKnees) {
   EXPECT_TRUE(knees.tracker.refine_swap);
   EXPECT_TRUE(knees.tracker.filterOptions().refine_swap);
   EXPECT_TRUE(knees.tracker.filterOptions().refine_swap_knees_only);
-  const ServerConfig legs = parseConfig(cameras + "tracker: {refine_swap: true}\n", "test.yaml", ".");
+  const ServerConfig legs =
+      parseConfig(cameras + "tracker: {refine_swap: true}\n", "test.yaml", ".");
   EXPECT_TRUE(legs.tracker.filterOptions().refine_swap);
   EXPECT_FALSE(legs.tracker.filterOptions().refine_swap_knees_only);
 

@@ -305,7 +305,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   // Averages over the frames tracked (all of them unless some were skipped).
   const int scored = static_cast<int>(tracked_frames.size());
   nlohmann::json joints = nlohmann::json::object();
-  for (std::size_t p = 0; p < per_joint.size(); ++p) joints[model.points[p].name] = per_joint[p] / scored;
+  for (std::size_t p = 0; p < per_joint.size(); ++p)
+    joints[model.points[p].name] = per_joint[p] / scored;
   double mpjpe = 0, worst = 0, residual = 0;
   int lost = 0, recovery = -1;
   for (int i = 0; i < scored; ++i) {
