@@ -145,6 +145,9 @@ grpc::ServerUnaryReactor* MocapServiceImpl::GetStatus(grpc::CallbackServerContex
   recordingToProto(status.recording, *response->mutable_recording());
   response->set_tracker_method(config_.tracker.method);
   response->set_evaluations_per_frame(status.evaluations_per_frame);
+  auto& settings = *response->mutable_tracker_settings();
+  for (const auto& [key, value] : config_.tracker.keyValues()) settings[key] = value;
+  settings["threads"] = std::to_string(config_.tracker.threads);
   for (const std::string& warning : status.background_warnings)
     response->add_background_warnings(warning);
   return finish(context, grpc::Status::OK);

@@ -329,6 +329,20 @@ TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
   // experiment's 200-frame walk measures 33 mm; a lost body is 100 mm and more).
   std::nth_element(errors.begin(), errors.begin() + 25, errors.end());
   EXPECT_LT(errors[25], 50.0);
+
+  // The status names the tracker settings in use: the people defaults here.
+  grpc::ClientContext status_context;
+  v1::Status status;
+  ASSERT_TRUE(stub->GetStatus(&status_context, {}, &status).ok());
+  const auto& settings = status.tracker_settings();
+  const auto setting = [&](const std::string& key) {
+    const auto found = settings.find(key);
+    return found == settings.end() ? std::string("<missing>") : found->second;
+  };
+  EXPECT_EQ(setting("evaluations"), std::to_string(config.tracker.evaluations));
+  EXPECT_EQ(setting("lookahead"), "body");
+  EXPECT_EQ(setting("refine_plant"), "true");
+  EXPECT_EQ(setting("threads"), std::to_string(config.tracker.threads));
 }
 
 // Speed limits are per frame: cameras at 50 Hz give the tracker frames half as far apart in time,
