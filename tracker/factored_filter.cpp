@@ -399,24 +399,25 @@ class FactoredFilter final : public PoseFilter {
       for (std::size_t k = 0; k < placed.size(); ++k)
         explained[k] = node_footprints_[placed[k] + c];
     }
-    // Per camera, so candidates of the same pose recount only the rows their chain covers.
+    // Counts kept per camera, so candidates of the same pose recount only the rows their chain
+    // covers.
     PixelCounts counts;
     Footprint* footprints = candidateFootprints(i);
     PixelCounts* camera_counts = &candidate_counts_[i * rig_.size()];
-    for (std::size_t c = 0; c < rig_.size(); ++c) {
-      const Footprint* explained = scratch.explained[c].data();
-      const int explained_count = static_cast<int>(scratch.explained[c].size());
-      if (same_pose < 0) {
-        footprints[c] = scratch.rasterizer.rasterize(model_.segments[s].shape, cand.pose, rig_[c],
-                                                     candidateSpans(i, c));
-        camera_counts[c] = countFootprint(masks[c], footprints[c], explained, explained_count);
-      } else {
+    if (same_pose < 0) {
+      RowSpan* spans[kMaxCameras];
+      for (std::size_t c = 0; c < rig_.size(); ++c) spans[c] = candidateSpans(i, c);
+      counts = observeSegment(model_.segments[s].shape, cand.pose, rig_, masks, scratch.rasterizer,
+                              spans, footprints, scratch.explained, camera_counts);
+    } else {
+      for (std::size_t c = 0; c < rig_.size(); ++c) {
         footprints[c] = candidateFootprints(same_pose)[c];
         camera_counts[c] = recountFootprint(masks[c], footprints[c],
                                             candidate_counts_[same_pose * rig_.size() + c],
-                                            explained, explained_count);
+                                            scratch.explained[c].data(),
+                                            static_cast<int>(scratch.explained[c].size()));
+        counts += camera_counts[c];
       }
-      counts += camera_counts[c];
     }
     cand.log_weight += logLikelihood(options_.likelihood, counts);
     cand.selection = cand.log_weight;
@@ -516,20 +517,19 @@ class FactoredFilter final : public PoseFilter {
       out.q = cand.q;
       out.log_weight = cand.log_weight;
       out.node = particles_[cand.parent].node;
+      // Particles kept at the same segment pose share one node.
       int& node = group_node_[pose_group_[order_[k]]];
-      if (node >= 0) {  // the same segment pose as a particle kept before: share its node
-        out.node[layer.segment] = node;
-        continue;
-      }
-      node = addNode(cand.pose);
-      const Footprint* from = candidateFootprints(order_[k]);
-      for (std::size_t c = 0; c < rig_.size(); ++c) {
-        Footprint f = from[c];
-        RowSpan* dst = &span_arena_[arena_used_];
-        std::copy(f.spans, f.spans + (f.y1 - f.y0), dst);
-        arena_used_ += static_cast<std::size_t>(f.y1 - f.y0);
-        f.spans = dst;
-        node_footprints_[nodes_[node].first_footprint + c] = f;
+      if (node < 0) {
+        node = addNode(cand.pose);
+        const Footprint* from = candidateFootprints(order_[k]);
+        for (std::size_t c = 0; c < rig_.size(); ++c) {
+          Footprint f = from[c];
+          RowSpan* dst = &span_arena_[arena_used_];
+          std::copy(f.spans, f.spans + (f.y1 - f.y0), dst);
+          arena_used_ += static_cast<std::size_t>(f.y1 - f.y0);
+          f.spans = dst;
+          node_footprints_[nodes_[node].first_footprint + c] = f;
+        }
       }
       out.node[layer.segment] = node;
     }

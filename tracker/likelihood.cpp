@@ -238,12 +238,15 @@ namespace mocap {
 PixelCounts observeSegment(const Shape& shape, const Eigen::Isometry3d& pose, const Rig& rig,
                            const std::vector<SilhouetteMask>& masks, ShapeRasterizer& rasterizer,
                            RowSpan* const* span_buffers, Footprint* footprints,
-                           const std::vector<std::vector<Footprint>>& explained) {
+                           const std::vector<std::vector<Footprint>>& explained,
+                           PixelCounts* camera_counts) {
   PixelCounts counts;
   for (std::size_t c = 0; c < rig.size(); ++c) {
     footprints[c] = rasterizer.rasterize(shape, pose, rig[c], span_buffers[c]);
-    counts += countFootprint(masks[c], footprints[c], explained[c].data(),
-                             static_cast<int>(explained[c].size()));
+    const PixelCounts camera = countFootprint(masks[c], footprints[c], explained[c].data(),
+                                              static_cast<int>(explained[c].size()));
+    if (camera_counts) camera_counts[c] = camera;
+    counts += camera;
   }
   return counts;
 }

@@ -58,10 +58,12 @@ namespace mocap {
 
 // Rasterizes one segment's shape at `pose` into every camera of `rig` (spans into
 // span_buffers[c], footprint into footprints[c]) and counts it against masks[c], skipping the
-// pixels of explained[c]. The one observation step shared by every filter.
+// pixels of explained[c]; each camera's counts also go to camera_counts[c] if given. The one
+// observation step shared by every filter.
 PixelCounts observeSegment(const Shape& shape, const Eigen::Isometry3d& pose, const Rig& rig,
                            const std::vector<SilhouetteMask>& masks, ShapeRasterizer& rasterizer,
                            RowSpan* const* span_buffers, Footprint* footprints,
-                           const std::vector<std::vector<Footprint>>& explained);
+                           const std::vector<std::vector<Footprint>>& explained,
+                           PixelCounts* camera_counts = nullptr);
 
 }  // namespace mocap
