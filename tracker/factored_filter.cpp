@@ -140,8 +140,8 @@ class FactoredFilter final : public PoseFilter {
       // Each draw is followed by up to 3 poses of local search.
       restart_draws_ = static_cast<int>(
           std::lround(options.refine_restart_share * refine_evaluations_ / 4));
-      refiner_ = std::make_unique<IncrementalBodyEvaluator>(model, rig,
-                                                            options.likelihood.points_per_circle);
+      refiner_ = std::make_unique<IncrementalBodyEvaluator>(
+          model, rig, options.likelihood.points_per_circle, &pool);
     }
 
     for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);

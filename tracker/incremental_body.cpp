@@ -15,11 +15,14 @@ bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 }  // namespace
 
 IncrementalBodyEvaluator::IncrementalBodyEvaluator(const BodyModel& model, const Rig& rig,
-                                                   int points_per_circle)
+                                                   int points_per_circle, WorkerPool* pool)
     : model_(model),
       rig_(rig),
       cameras_(rig.size()),
-      rasterizer_(points_per_circle),
+      pool_(pool),
+      rasterizers_(pool ? pool->size() : 1, ShapeRasterizer(points_per_circle)),
+      camera_matched_(rig.size()),
+      camera_rest_(rig.size()),
       drawn_index_(model.segments.size(), -1),
       kinematics_(model),
       moved_flag_(model.segments.size(), 0),
@@ -32,10 +35,22 @@ IncrementalBodyEvaluator::IncrementalBodyEvaluator(const BodyModel& model, const
   }
   spans_.resize(drawn_.size() * 2 * cameras_ * max_rows_);
   footprints_.resize(drawn_.size() * 2 * cameras_);
+  footprint_counts_.resize(footprints_.size());
   slot_.assign(drawn_.size(), 0);
   segment_counts_.resize(drawn_.size());
   trial_counts_.resize(drawn_.size());
   for (auto& e : rest_explained_) e.reserve(drawn_.size());
+}
+
+void IncrementalBodyEvaluator::forEachCamera(
+    const std::function<void(std::size_t, ShapeRasterizer&)>& fn) {
+  if (!pool_ || pool_->size() == 1) {
+    for (std::size_t c = 0; c < cameras_; ++c) fn(c, rasterizers_[0]);
+    return;
+  }
+  pool_->parallelFor(static_cast<int>(cameras_), [&](int c, int worker) {
+    fn(static_cast<std::size_t>(c), rasterizers_[worker]);
+  });
 }
 
 PixelCounts IncrementalBodyEvaluator::reset(const Eigen::VectorXd& q,
@@ -52,13 +67,16 @@ PixelCounts IncrementalBodyEvaluator::reset(const Eigen::VectorXd& q,
   forwardKinematics(model_, kinematics_, q);
   // The whole body is the moved set over an empty rest.
   moved_drawn_.resize(drawn_.size());
-  for (std::size_t k = 0; k < drawn_.size(); ++k) {
-    moved_drawn_[k] = static_cast<int>(k);
-    draw(static_cast<int>(k), slot_[k]);
-  }
+  for (std::size_t k = 0; k < drawn_.size(); ++k) moved_drawn_[k] = static_cast<int>(k);
+  forEachCamera([&](std::size_t c, ShapeRasterizer& rasterizer) {
+    rest_explained_[c].clear();
+    for (int k : moved_drawn_) draw(k, c, slot_[k], rasterizer);
+    camera_matched_[c] = movedOverRest(c, Moved::kDrawn);
+  });
   renders_ += static_cast<long>(drawn_.size());
-  for (auto& e : rest_explained_) e.clear();
-  matched_ = movedOverRest(false);
+  matched_ = 0;
+  for (long m : camera_matched_) matched_ += m;
+  sumMovedCounts(Moved::kDrawn);
   sums_ = SegmentCounts();
   for (std::size_t k = 0; k < drawn_.size(); ++k) {
     segment_counts_[k] = trial_counts_[k];
@@ -90,11 +108,25 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
   }
   saved_world_.resize(moved_.size());
   for (std::size_t i = 0; i < moved_.size(); ++i) saved_world_[i] = kinematics_.world[moved_[i]];
-  if (!rest_valid_ || rest_of_ != moved_drawn_) restFor();
+  const bool new_rest = !rest_valid_ || rest_of_ != moved_drawn_;
+  // matched(R) directly when R is the smaller part (the root or a pattern move moves nearly all).
+  if (new_rest) rest_direct_ = 2 * moved_drawn_.size() > drawn_.size();
   forwardKinematics(model_, kinematics_, q, moved_);
-  for (int k : moved_drawn_) draw(k, 1 - slot_[k]);
+  forEachCamera([&](std::size_t c, ShapeRasterizer& rasterizer) {
+    if (new_rest) camera_rest_[c] = restFor(c);
+    for (int k : moved_drawn_) draw(k, c, 1 - slot_[k], rasterizer);
+    camera_matched_[c] = movedOverRest(c, Moved::kTrial);
+  });
+  if (new_rest) {
+    rest_matched_ = rest_direct_ ? 0 : matched_;
+    for (long m : camera_rest_) rest_matched_ += rest_direct_ ? m : -m;
+    rest_of_ = moved_drawn_;
+    rest_valid_ = true;
+  }
   renders_ += static_cast<long>(moved_drawn_.size());
-  trial_matched_ = rest_matched_ + movedOverRest(true);
+  trial_matched_ = rest_matched_;
+  for (long m : camera_matched_) trial_matched_ += m;
+  sumMovedCounts(Moved::kTrial);
   trial_sums_ = sums_;
   for (int k : moved_drawn_) {
     trial_sums_.area += trial_counts_[k].area - segment_counts_[k].area;
@@ -124,60 +156,64 @@ void IncrementalBodyEvaluator::reject() {
   pending_ = false;
 }
 
-void IncrementalBodyEvaluator::restFor() {
-  for (auto& e : rest_explained_) e.clear();
+long IncrementalBodyEvaluator::restFor(std::size_t c) {
+  std::vector<Footprint>& rest = rest_explained_[c];
+  rest.clear();
   std::size_t next_moved = 0;
   for (std::size_t k = 0; k < drawn_.size(); ++k) {
     if (next_moved < moved_drawn_.size() && moved_drawn_[next_moved] == static_cast<int>(k)) {
       ++next_moved;
       continue;
     }
-    for (std::size_t c = 0; c < cameras_; ++c)
-      rest_explained_[c].push_back(footprint(static_cast<int>(k), c, slot_[k]));
+    rest.push_back(footprint(static_cast<int>(k), c, slot_[k]));
   }
-  // matched(R) directly when R is the smaller part (the root or a pattern move moves nearly all).
-  if (2 * moved_drawn_.size() > drawn_.size()) {
-    rest_matched_ = 0;
-    for (std::size_t c = 0; c < cameras_; ++c) {
-      const std::vector<Footprint>& rest = rest_explained_[c];
-      for (std::size_t i = 0; i < rest.size(); ++i)
-        rest_matched_ +=
-            countFootprint((*masks_)[c], rest[i], rest.data(), static_cast<int>(i)).matched;
-    }
-  } else {
-    rest_matched_ = matched_ - movedOverRest(false);
-  }
-  rest_of_ = moved_drawn_;
-  rest_valid_ = true;
-}
-
-long IncrementalBodyEvaluator::movedOverRest(bool trial) {
+  if (!rest_direct_) return movedOverRest(c, Moved::kCurrent);
   long matched = 0;
-  for (int k : moved_drawn_) trial_counts_[k] = SegmentCounts();
-  for (std::size_t c = 0; c < cameras_; ++c) {
-    std::vector<Footprint>& explained = rest_explained_[c];
-    const std::size_t rest = explained.size();
-    for (int k : moved_drawn_) {
-      const Footprint& f = footprint(k, c, trial ? 1 - slot_[k] : slot_[k]);
-      const PixelCounts counts = countFootprint((*masks_)[c], f, explained.data(),
-                                                static_cast<int>(explained.size()));
-      matched += counts.matched;
-      trial_counts_[k].area += counts.area;
-      trial_counts_[k].silhouette += counts.area - counts.outside;
-      explained.push_back(f);
-    }
-    explained.resize(rest);
-  }
+  for (std::size_t i = 0; i < rest.size(); ++i)
+    matched += countFootprint((*masks_)[c], rest[i], rest.data(), static_cast<int>(i)).matched;
   return matched;
 }
 
-void IncrementalBodyEvaluator::draw(int k, int slot) {
-  const int s = drawn_[k];
-  for (std::size_t c = 0; c < cameras_; ++c) {
-    RowSpan* buffer = &spans_[((static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c) * max_rows_];
-    footprint(k, c, slot) =
-        rasterizer_.rasterize(model_.segments[s].shape, kinematics_.world[s], rig_[c], buffer);
+long IncrementalBodyEvaluator::movedOverRest(std::size_t c, Moved which) {
+  long matched = 0;
+  std::vector<Footprint>& explained = rest_explained_[c];
+  const std::size_t rest = explained.size();
+  for (int k : moved_drawn_) {
+    const std::size_t at = slotIndex(k, c, which == Moved::kTrial ? 1 - slot_[k] : slot_[k]);
+    const Footprint& f = footprints_[at];
+    const int n = static_cast<int>(explained.size());
+    PixelCounts counts;
+    if (which == Moved::kCurrent) {
+      counts = recountFootprint((*masks_)[c], f, footprint_counts_[at], explained.data(), n);
+    } else {
+      counts = countFootprint((*masks_)[c], f, explained.data(), n);
+      footprint_counts_[at] = counts;  // its area and outside pixels hold for any chain
+    }
+    matched += counts.matched;
+    explained.push_back(f);
   }
+  explained.resize(rest);
+  return matched;
+}
+
+void IncrementalBodyEvaluator::sumMovedCounts(Moved which) {
+  for (int k : moved_drawn_) {
+    SegmentCounts& sum = trial_counts_[k];
+    sum = SegmentCounts();
+    for (std::size_t c = 0; c < cameras_; ++c) {
+      const PixelCounts& counts =
+          footprint_counts_[slotIndex(k, c, which == Moved::kTrial ? 1 - slot_[k] : slot_[k])];
+      sum.area += counts.area;
+      sum.silhouette += counts.area - counts.outside;
+    }
+  }
+}
+
+void IncrementalBodyEvaluator::draw(int k, std::size_t c, int slot, ShapeRasterizer& rasterizer) {
+  const int s = drawn_[k];
+  RowSpan* buffer = &spans_[slotIndex(k, c, slot) * max_rows_];
+  footprint(k, c, slot) =
+      rasterizer.rasterize(model_.segments[s].shape, kinematics_.world[s], rig_[c], buffer);
 }
 
 PixelCounts IncrementalBodyEvaluator::total(const SegmentCounts& sums, long matched) const {

@@ -11,18 +11,24 @@
 // DOFs (the refinement tries each DOF both ways, accepted or not), so it is counted once per set.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "tracker/body_model.h"
 #include "tracker/camera.h"
 #include "tracker/kinematics.h"
 #include "tracker/likelihood.h"
+#include "tracker/worker_pool.h"
 
 namespace mocap {
 
 class IncrementalBodyEvaluator {
  public:
-  IncrementalBodyEvaluator(const BodyModel& model, const Rig& rig, int points_per_circle);
+  // With a pool of more than one thread, each camera's part of a reset or trial (rasterizing the
+  // moved segments, counting them over the rest) runs on its own worker; the counts are integers
+  // summed per camera, so they do not depend on the thread count. The pool is borrowed.
+  IncrementalBodyEvaluator(const BodyModel& model, const Rig& rig, int points_per_circle,
+                           WorkerPool* pool = nullptr);
 
   // Evaluates the whole body at q against `masks` (kept by reference until the next reset) and
   // makes it the current pose. Drops any pending trial.
@@ -44,16 +50,26 @@ class IncrementalBodyEvaluator {
     long silhouette = 0;  // silhouette pixels inside the footprints, other segments ignored
   };
 
-  // Rasterizes drawn segment k at its placed pose into slot `slot`.
-  void draw(int k, int slot);
-  // Matched pixels the moved drawn segments add over the rest, with their footprints of the current
-  // pose (`trial` false) or of the trial; each one's own counts go to trial_counts_.
-  long movedOverRest(bool trial);
-  // Makes the rest's explained footprints and matched pixels those of the trial's moved set.
-  void restFor();
-  Footprint& footprint(int k, std::size_t c, int slot) {
-    return footprints_[(static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c];
+  // Runs fn(camera, rasterizer) for every camera, on the pool's workers if there are several.
+  void forEachCamera(const std::function<void(std::size_t, ShapeRasterizer&)>& fn);
+  // Rasterizes drawn segment k at its placed pose into slot `slot` of camera c.
+  void draw(int k, std::size_t c, int slot, ShapeRasterizer& rasterizer);
+  // Which footprints of the moved drawn segments movedOverRest counts: the trial's, the current
+  // pose's just drawn by reset, or the current pose's counted before (recounted on the rows the
+  // rest covers only).
+  enum class Moved { kTrial, kDrawn, kCurrent };
+  // Matched pixels the moved drawn segments add over the rest in camera c; a footprint counted
+  // afresh keeps its own counts in footprint_counts_.
+  long movedOverRest(std::size_t c, Moved which);
+  // Makes camera c's explained footprints of the rest those of the trial's moved set, and returns
+  // its part of matched(R): counted directly (rest_direct_) or what the current moved set adds.
+  long restFor(std::size_t c);
+  // Each moved drawn segment's own counts over the cameras, from the footprints of `which`.
+  void sumMovedCounts(Moved which);
+  std::size_t slotIndex(int k, std::size_t c, int slot) const {
+    return (static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c;
   }
+  Footprint& footprint(int k, std::size_t c, int slot) { return footprints_[slotIndex(k, c, slot)]; }
   PixelCounts total(const SegmentCounts& sums, long matched) const;
 
   const BodyModel& model_;
@@ -61,7 +77,9 @@ class IncrementalBodyEvaluator {
   const std::vector<SilhouetteMask>* masks_ = nullptr;
   std::size_t cameras_ = 0;
   int max_rows_ = 0;
-  ShapeRasterizer rasterizer_;
+  WorkerPool* pool_;
+  std::vector<ShapeRasterizer> rasterizers_;  // one per worker
+  std::vector<long> camera_matched_, camera_rest_;  // per camera, scratch of reset and trial()
   std::vector<int> drawn_;        // segments with a shape, in model order
   std::vector<int> drawn_index_;  // per segment: index into drawn_, or -1
 
@@ -70,6 +88,9 @@ class IncrementalBodyEvaluator {
   std::vector<Eigen::Isometry3d> saved_world_;  // per moved segment: its pose before the trial
   std::vector<RowSpan> spans_;                // per drawn segment, 2 slots, per camera, max_rows
   std::vector<Footprint> footprints_;         // the same layout
+  // The same layout: each footprint's own area and silhouette pixels (no chain), so the current
+  // pose's moved set is recounted over a new rest on the rows the rest covers only.
+  std::vector<PixelCounts> footprint_counts_;
   std::vector<int> slot_;                     // per drawn segment: the current pose's slot
   std::vector<SegmentCounts> segment_counts_, trial_counts_;  // per drawn segment
   SegmentCounts sums_, trial_sums_;
@@ -85,6 +106,7 @@ class IncrementalBodyEvaluator {
   std::vector<int> rest_of_;  // drawn indices of the moved set it belongs to
   bool rest_valid_ = false;
   std::vector<std::vector<Footprint>> rest_explained_;
+  bool rest_direct_ = false;  // matched(R) counted directly: R is the smaller part
   long rest_matched_ = 0;
   long renders_ = 0;
 };

@@ -30,12 +30,15 @@ void expectSameCounts(const PixelCounts& a, const PixelCounts& b, const std::str
 using testing_support::silhouettes;
 
 // Random trials from `start` against the silhouettes of `truth`; steps of up to `speeds` speed
-// limits, so footprints move by a few pixels to many.
+// limits, so footprints move by a few pixels to many. With `threads` > 1 the evaluator runs each
+// camera's part on a pool's workers.
 void checkRandomTrials(const BodyModel& model, const Rig& rig, const Eigen::VectorXd& truth,
-                       const Eigen::VectorXd& start, int trials, unsigned seed, double speeds) {
+                       const Eigen::VectorXd& start, int trials, unsigned seed, double speeds,
+                       int threads = 1) {
   const auto masks = silhouettes(model, rig, truth);
   FullBodyEvaluator full(model, rig, LikelihoodParams().points_per_circle, 1);
-  IncrementalBodyEvaluator incremental(model, rig, LikelihoodParams().points_per_circle);
+  WorkerPool pool(threads);
+  IncrementalBodyEvaluator incremental(model, rig, LikelihoodParams().points_per_circle, &pool);
   expectSameCounts(incremental.reset(start, masks), full.evaluate(start, masks, 0), "reset");
   ASSERT_GT(incremental.counts().matched, 1000) << "area " << incremental.counts().area;
   std::vector<int> free_dofs;
@@ -80,6 +83,12 @@ TEST(IncrementalBodyEvaluator, HandTrialsMatchTheFullEvaluation) {
   checkRandomTrials(scene.model, scene.rig, truth, scene.perturbed(truth, 2.0), 200, 2, 8.0);
 }
 
+TEST(IncrementalBodyEvaluator, HandTrialsOnTwoThreadsMatchTheFullEvaluation) {
+  testing_support::HandScene scene;  // 3 cameras over 2 workers: one takes two
+  const Eigen::VectorXd truth = generateMotion(scene.model, 3, 9)[0];
+  checkRandomTrials(scene.model, scene.rig, truth, scene.perturbed(truth, 2.0), 300, 4, 1.5, 2);
+}
+
 // The human as `mocap-experiment human` sets it up (the CMU walk, fitted and retargeted, the lab
 // rig), at half the resolution.
 TEST(IncrementalBodyEvaluator, HumanTrialsMatchTheFullEvaluation) {
@@ -91,6 +100,7 @@ TEST(IncrementalBodyEvaluator, HumanTrialsMatchTheFullEvaluation) {
   const Motion motion = retargetBvh(model, bvh.skeleton, bvh.motion, 25, 10).motion;
   const Rig rig = labRig(2, model, motion, 390, 290);
   checkRandomTrials(model, rig, motion[9], motion[5], 300, 3, 2.0);
+  checkRandomTrials(model, rig, motion[9], motion[5], 150, 5, 2.0, 2);
 }
 
 TEST(IncrementalBodyEvaluator, ResetClearsThePreviousFrame) {
