@@ -61,6 +61,12 @@ class Handoff {
     return closed_;
   }
 
+  // Whether an item waits for the consumer.
+  bool waiting() const {
+    std::lock_guard lock(mutex_);
+    return !items_.empty();
+  }
+
   // Items replaced by a newer one before the consumer took them (live mode only).
   uint64_t superseded() const {
     std::lock_guard lock(mutex_);

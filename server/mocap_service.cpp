@@ -145,6 +145,7 @@ grpc::ServerUnaryReactor* MocapServiceImpl::GetStatus(grpc::CallbackServerContex
   recordingToProto(status.recording, *response->mutable_recording());
   response->set_tracker_method(config_.tracker.method);
   response->set_evaluations_per_frame(status.evaluations_per_frame);
+  response->set_refinements_cut(status.refinements_cut);
   auto& settings = *response->mutable_tracker_settings();
   for (const auto& [key, value] : config_.tracker.keyValues()) settings[key] = value;
   settings["threads"] = std::to_string(config_.tracker.threads);

@@ -88,6 +88,9 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
 
   pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
   filter_ = makeFilter(config.tracker.method, model_, rig_, config.tracker.filterOptions(), *pool_);
+  // Live, a step's refinement gives way to a newer frame set rather than have it wait or be
+  // dropped. Replay queues every set, so it never yields and stays repeatable.
+  if (!config.replay()) filter_->setYield([this] { return masks_.waiting(); });
   filter_->reset(inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
                      ? inputs.initial_pose
                      : model_.neutralPose());
@@ -471,6 +474,7 @@ void Pipeline::trackerLoop() {
       pose->reference_error_mm = truth.empty() ? 0.0 : 1000 * sum / truth.size();
     }
     evaluations_per_frame_ = static_cast<double>(estimate.evaluations);
+    if (estimate.cut_short) ++refinements_cut_;
     tracker_rate_.tick(monotonicNowNs());
     poses_.push(std::move(pose));
   }
@@ -607,6 +611,7 @@ PipelineStatus Pipeline::status() const {
   status.poses_published = poses_published_;
   status.frame_sets_skipped = sync.sets_superseded + masks_.superseded() + poses_.superseded();
   status.evaluations_per_frame = evaluations_per_frame_;
+  status.refinements_cut = refinements_cut_;
   status.latency = latency_.summary();
   std::lock_guard lock(recording_mutex_);
   status.recording = recordingStatusLocked();

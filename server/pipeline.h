@@ -88,6 +88,7 @@ struct PipelineStatus {
   uint64_t poses_published = 0;
   uint64_t frame_sets_skipped = 0;  // live: superseded in the synchronizer or between stages
   double evaluations_per_frame = 0;
+  uint64_t refinements_cut = 0;  // live: steps whose refinement gave way to a newer frame set
   LatencySummary latency;
   RecordingStatus recording;
   // Saved backgrounds refused or ignored at start-up, one line each naming the file (also logged).
@@ -223,6 +224,7 @@ class Pipeline {
   LatencyWindow latency_;
   std::atomic<uint64_t> poses_published_{0};
   std::atomic<double> evaluations_per_frame_{0};
+  std::atomic<uint64_t> refinements_cut_{0};
 
   // The recorder tap: the mask thread writes each frame set while a recording is open.
   mutable std::mutex recording_mutex_;

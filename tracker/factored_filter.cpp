@@ -162,6 +162,10 @@ class FactoredFilter final : public PoseFilter {
 
   std::string name() const override { return "factored"; }
 
+  void setYield(std::function<bool()> newer_frame_waiting) override {
+    yield_ = std::move(newer_frame_waiting);
+  }
+
   void reset(const Eigen::VectorXd& q0) override {
     if (q0.size() != static_cast<long>(model_.dofs.size()))
       throw std::invalid_argument("factored filter: initial pose has the wrong number of DOFs");
@@ -556,10 +560,14 @@ class FactoredFilter final : public PoseFilter {
     Eigen::VectorXd& sweep_start = refine_sweep_start_;
     if (restart_draws_ > 0) restartLimb(q, best, budget);
     if (!swap_pairs_.empty()) swapLegs(q, best, budget);
-    while (budget > 0) {
+    while (budget > 0 && !estimate.cut_short) {
       sweep_start = q;
       const int budget_before_sweep = budget;
       for (std::size_t i = 0; i < refine_dofs_.size() && budget > 0; ++i) {
+        if (yield_ && yield_()) {
+          estimate.cut_short = true;
+          break;
+        }
         const int d = refine_dofs_[i];
         if (stepDof(d, refine_steps_[i], nullptr, q, best, budget, 0)) continue;
         if (!refine_held_[i].empty())
@@ -571,7 +579,7 @@ class FactoredFilter final : public PoseFilter {
       // Every step has shrunk below what moves a DOF (or every DOF sits at a limit): nothing
       // left to try, so stop rather than loop forever on the unspent budget.
       if (budget == budget_before_sweep) break;
-      if (budget > 0 && q != sweep_start) {
+      if (budget > 0 && q != sweep_start && !estimate.cut_short) {
         tried = 2 * q - sweep_start;
         clampToLimits(model_, tried);
         tryPose(tried, q, best, budget);
@@ -924,6 +932,7 @@ class FactoredFilter final : public PoseFilter {
   FilterOptions options_;
   WorkerPool& pool_;
   std::mt19937_64 rng_;
+  std::function<bool()> yield_;  // see PoseFilter::setYield
 
   std::vector<Layer> layers_;
   std::vector<int> static_segments_;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -101,6 +102,7 @@ struct FrameEstimate {
   double best_log_weight = 0;
   long evaluations = 0;       // particle evaluations spent this frame (the paper's count)
   long segment_renders = 0;   // segment rasterizations (the compute actually spent)
+  bool cut_short = false;     // optional work (the refinement) ended early: see PoseFilter::setYield
 };
 
 class PoseFilter {
@@ -111,6 +113,11 @@ class PoseFilter {
   virtual void reset(const Eigen::VectorXd& q0) = 0;
   // One frame: masks[c] is camera c's silhouette, cameras in rig order.
   virtual FrameEstimate step(const std::vector<SilhouetteMask>& masks) = 0;
+  // For live use: a check the filter makes during a step's optional work (the factored filter's
+  // refinement, between DOFs); once it returns true that work ends, so a newer frame is not kept
+  // waiting or dropped. The step's result then depends on timing: leave it unset (empty) for
+  // repeatable runs. Filters without optional work ignore it.
+  virtual void setYield(std::function<bool()> newer_frame_waiting) { (void)newer_frame_waiting; }
 };
 
 // method: "factored", "condensation" or "annealed". The model, rig and pool are borrowed and must

@@ -265,10 +265,10 @@ TEST_F(EndToEndTest, CaptureBackgroundLearnsWhilePosesFlow) {
   server->shutdown();
 }
 
-// Every pose of a replay: frame sequence and DOF vector.
-// The poses a replay of `session` publishes (and, if asked, its evaluations per frame).
+// The poses a replay of `session` publishes, frame sequence and DOF vector (and, if asked, its
+// status at the end).
 std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& session,
-                                                             double* evaluations_per_frame = nullptr) {
+                                                             PipelineStatus* end_status = nullptr) {
   ServerConfig config = test::sceneConfig();
   config.replay_directory = session.string();
   config.as_fast_as_possible = true;
@@ -282,8 +282,7 @@ std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& ses
   });
   EXPECT_TRUE(server.value()->start().ok());
   server.value()->pipeline().waitForReplayEnd();
-  if (evaluations_per_frame)
-    *evaluations_per_frame = server.value()->pipeline().status().evaluations_per_frame;
+  if (end_status) *end_status = server.value()->pipeline().status();
   server.value()->shutdown();
   return poses;
 }
@@ -402,6 +401,44 @@ TEST_F(EndToEndTest, TracksTheGaitDofsWhenTheConfigurationSaysSo) {
   EXPECT_THAT(refused.error(), ::testing::HasSubstr("tracker.dofs: gait, but the body model 'hand'"));
 }
 
+// Live, a tracker whose refinement cannot fit in a frame period gives it up when the next frame
+// set is waiting, and says how often in its status; the poses keep coming. A replay of the same
+// frames, which queues every set, never gives it up (it stays repeatable).
+TEST_F(EndToEndTest, ARefinementLongerThanAFrameGivesWayToTheNextSetLiveOnly) {
+  const fs::path root = freshDirectory("yield");
+  ServerConfig config = test::sceneConfig();
+  // The hand's layers alone take 23,925 evaluations, more than a frame period on any machine
+  // (about 0.2 s here), so the next set is waiting whenever the refinement starts.
+  config.tracker.evaluations = 30000;
+  config.tracker.refine = 0.2;
+  config.recording_directory = fs::canonical(root).string();
+  {
+    std::unique_ptr<MocapServer> server = startServer(config);
+    ASSERT_TRUE(server);
+    auto stub = test::connect(server->port());
+    grpc::ClientContext stream_context;
+    auto reader = stub->StreamPoses(&stream_context, v1::StreamPosesRequest());
+    v1::Pose pose;
+    ASSERT_TRUE(reader->Read(&pose));  // recording starts once every camera has sent a frame
+    record(*stub, "session", 3);
+    int received = 1;
+    for (; received < 3 && reader->Read(&pose); ++received) {
+    }
+    stream_context.TryCancel();
+    EXPECT_EQ(received, 3);
+    grpc::ClientContext context;
+    v1::Status status;
+    ASSERT_TRUE(stub->GetStatus(&context, {}, &status).ok());
+    EXPECT_GE(status.refinements_cut(), 2u);
+    EXPECT_GT(status.evaluations_per_frame(), 0);
+    EXPECT_LT(status.evaluations_per_frame(), 25000);
+  }
+  PipelineStatus replayed;
+  EXPECT_GE(replay(root / "session", &replayed).size(), 3u);
+  EXPECT_EQ(replayed.refinements_cut, 0u);
+  fs::remove_all(root);
+}
+
 TEST_F(EndToEndTest, ASceneMotionThatDoesNotLoadStopsTheStartUpNamingIt) {
   const fs::path dir = freshDirectory("bad_bvh");
   std::ofstream(dir / "broken.bvh") << "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n";
@@ -457,11 +494,11 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   }
   // The replay's configuration names no body and no tracker keys: the session's own body (31
   // DOFs) is tracked, not the built-in hand (15), with the session's settings.
-  double evaluations_per_frame = 0;
-  const auto poses = replay(root / "session", &evaluations_per_frame);
+  PipelineStatus status;
+  const auto poses = replay(root / "session", &status);
   ASSERT_FALSE(poses.empty());
   for (const auto& [sequence, dofs] : poses) ASSERT_EQ(dofs.size(), 31u) << "frame " << sequence;
-  EXPECT_EQ(evaluations_per_frame, 600);
+  EXPECT_EQ(status.evaluations_per_frame, 600);
   fs::remove_all(root);
 }
 

@@ -144,6 +144,39 @@ TEST(FactoredFilter, RefinementStopsWhenNoStepMovesAnyMore) {
   EXPECT_LT(scene.pointError(e.q, truth), 0.002);
 }
 
+// Live, the refinement gives way to a newer frame: asked to yield after a few checks it stops
+// there and says so; never asked, it is the refinement with no check at all, to the bit.
+TEST(FactoredFilter, RefinementYieldsToANewerFrameWhenAsked) {
+  HandScene scene;
+  const Motion motion = generateMotion(scene.model, 3, 5);
+  FilterOptions options;
+  options.refine_share = 0.4;  // 15 layers x 5 x 3 = 225, so the refinement gets 150
+  auto run = [&](const std::function<bool()>& yield) {
+    WorkerPool pool(1);
+    auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
+    if (yield) filter->setYield(yield);
+    filter->reset(motion[0]);
+    std::vector<FrameEstimate> estimates;
+    for (const auto& q : motion) estimates.push_back(filter->step(scene.masks(q)));
+    return estimates;
+  };
+  const std::vector<FrameEstimate> plain = run(nullptr);
+  const std::vector<FrameEstimate> never = run([] { return false; });
+  int checks = 0;
+  const std::vector<FrameEstimate> cut = run([&] { return ++checks % 8 == 0; });
+  for (std::size_t f = 0; f < plain.size(); ++f) {
+    EXPECT_EQ(plain[f].evaluations, 375);
+    EXPECT_FALSE(plain[f].cut_short);
+    EXPECT_EQ(never[f].q, plain[f].q) << "frame " << f;
+    EXPECT_FALSE(never[f].cut_short);
+    // The layers' 225 and the refinement's first score, then seven DOFs of the first sweep
+    // before the eighth check yields: up to 2 trials each (none for a DOF held at a limit).
+    EXPECT_TRUE(cut[f].cut_short) << "frame " << f;
+    EXPECT_GE(cut[f].evaluations, 225 + 1) << "frame " << f;
+    EXPECT_LE(cut[f].evaluations, 225 + 1 + 7 * 2) << "frame " << f;
+  }
+}
+
 TEST(FactoredFilter, RefinementDoesNotDependOnTheThreadCount) {
   FilterOptions options;
   options.refine_share = 0.4;
