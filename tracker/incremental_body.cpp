@@ -114,7 +114,7 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
   forwardKinematics(model_, kinematics_, q, moved_);
   forEachCamera([&](std::size_t c, ShapeRasterizer& rasterizer) {
     if (new_rest) camera_rest_[c] = restFor(c);
-    for (int k : moved_drawn_) draw(k, c, 1 - slot_[k], rasterizer);
+    for (int k : moved_drawn_) draw(k, c, slotOf(k, Moved::kTrial), rasterizer);
     camera_matched_[c] = movedOverRest(c, Moved::kTrial);
   });
   if (new_rest) {
@@ -179,7 +179,7 @@ long IncrementalBodyEvaluator::movedOverRest(std::size_t c, Moved which) {
   std::vector<Footprint>& explained = rest_explained_[c];
   const std::size_t rest = explained.size();
   for (int k : moved_drawn_) {
-    const std::size_t at = slotIndex(k, c, which == Moved::kTrial ? 1 - slot_[k] : slot_[k]);
+    const std::size_t at = slotIndex(k, c, slotOf(k, which));
     const Footprint& f = footprints_[at];
     const int n = static_cast<int>(explained.size());
     PixelCounts counts;
@@ -201,8 +201,7 @@ void IncrementalBodyEvaluator::sumMovedCounts(Moved which) {
     SegmentCounts& sum = trial_counts_[k];
     sum = SegmentCounts();
     for (std::size_t c = 0; c < cameras_; ++c) {
-      const PixelCounts& counts =
-          footprint_counts_[slotIndex(k, c, which == Moved::kTrial ? 1 - slot_[k] : slot_[k])];
+      const PixelCounts& counts = footprint_counts_[slotIndex(k, c, slotOf(k, which))];
       sum.area += counts.area;
       sum.silhouette += counts.area - counts.outside;
     }

@@ -66,6 +66,8 @@ class IncrementalBodyEvaluator {
   long restFor(std::size_t c);
   // Each moved drawn segment's own counts over the cameras, from the footprints of `which`.
   void sumMovedCounts(Moved which);
+  // The slot of drawn segment k that holds the footprints `which` names.
+  int slotOf(int k, Moved which) const { return which == Moved::kTrial ? 1 - slot_[k] : slot_[k]; }
   std::size_t slotIndex(int k, std::size_t c, int slot) const {
     return (static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c;
   }
