@@ -189,9 +189,18 @@ grpc::StatusCode startRecording(v1::MocapService::Stub& stub, const std::string&
   return stub.StartRecording(&context, request, &state).error_code();
 }
 
-// Records at least `sets` frame sets into `root`/`name`.
+// Records at least `sets` frame sets into `root`/`name`. A recording starts once every camera has
+// sent a frame, and a first pose does not prove it (a set may lack a camera that is late, as under
+// a loaded machine): the start is retried for up to 5 s while the daemon says so.
 void record(v1::MocapService::Stub& stub, const std::string& name, uint64_t sets) {
-  ASSERT_EQ(startRecording(stub, name), grpc::StatusCode::OK);
+  grpc::StatusCode started = startRecording(stub, name);
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (started == grpc::StatusCode::FAILED_PRECONDITION &&
+         std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    started = startRecording(stub, name);
+  }
+  ASSERT_EQ(started, grpc::StatusCode::OK);
   for (;;) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     grpc::ClientContext context;
