@@ -37,20 +37,7 @@ IncrementalBodyEvaluator::IncrementalBodyEvaluator(const BodyModel& model, const
   footprints_.resize(drawn_.size() * 2 * cameras_);
   footprint_counts_.resize(footprints_.size());
   slot_.assign(drawn_.size(), 0);
-  segment_counts_.resize(drawn_.size());
-  trial_counts_.resize(drawn_.size());
   for (auto& e : rest_explained_) e.reserve(drawn_.size());
-}
-
-void IncrementalBodyEvaluator::forEachCamera(
-    const std::function<void(std::size_t, ShapeRasterizer&)>& fn) {
-  if (!pool_ || pool_->size() == 1) {
-    for (std::size_t c = 0; c < cameras_; ++c) fn(c, rasterizers_[0]);
-    return;
-  }
-  pool_->parallelFor(static_cast<int>(cameras_), [&](int c, int worker) {
-    fn(static_cast<std::size_t>(c), rasterizers_[worker]);
-  });
 }
 
 PixelCounts IncrementalBodyEvaluator::reset(const Eigen::VectorXd& q,
@@ -74,16 +61,9 @@ PixelCounts IncrementalBodyEvaluator::reset(const Eigen::VectorXd& q,
     camera_matched_[c] = movedOverRest(c, Moved::kDrawn);
   });
   renders_ += static_cast<long>(drawn_.size());
-  matched_ = 0;
-  for (long m : camera_matched_) matched_ += m;
-  sumMovedCounts(Moved::kDrawn);
-  sums_ = SegmentCounts();
-  for (std::size_t k = 0; k < drawn_.size(); ++k) {
-    segment_counts_[k] = trial_counts_[k];
-    sums_.area += segment_counts_[k].area;
-    sums_.silhouette += segment_counts_[k].silhouette;
-  }
-  counts_ = total(sums_, matched_);
+  counts_ = PixelCounts();
+  for (long m : camera_matched_) counts_.matched += m;
+  for (int k : moved_drawn_) addOwnCounts(k, slot_[k], 1, counts_);
   return counts_;
 }
 
@@ -118,35 +98,29 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
     camera_matched_[c] = movedOverRest(c, Moved::kTrial);
   });
   if (new_rest) {
-    rest_matched_ = rest_direct_ ? 0 : matched_;
+    rest_matched_ = rest_direct_ ? 0 : counts_.matched;
     for (long m : camera_rest_) rest_matched_ += rest_direct_ ? m : -m;
     rest_of_ = moved_drawn_;
     rest_valid_ = true;
   }
   renders_ += static_cast<long>(moved_drawn_.size());
-  trial_matched_ = rest_matched_;
-  for (long m : camera_matched_) trial_matched_ += m;
-  sumMovedCounts(Moved::kTrial);
-  trial_sums_ = sums_;
+  trial_counts_ = counts_;
+  trial_counts_.matched = rest_matched_;
+  for (long m : camera_matched_) trial_counts_.matched += m;
   for (int k : moved_drawn_) {
-    trial_sums_.area += trial_counts_[k].area - segment_counts_[k].area;
-    trial_sums_.silhouette += trial_counts_[k].silhouette - segment_counts_[k].silhouette;
+    addOwnCounts(k, slotOf(k, Moved::kTrial), 1, trial_counts_);
+    addOwnCounts(k, slot_[k], -1, trial_counts_);
   }
   pending_ = true;
-  return total(trial_sums_, trial_matched_);
+  return trial_counts_;
 }
 
 void IncrementalBodyEvaluator::accept() {
   if (!pending_) return;
   // The rest stands where it stood, so its footprints and matched(R) stay valid.
-  for (int k : moved_drawn_) {
-    slot_[k] ^= 1;
-    segment_counts_[k] = trial_counts_[k];
-  }
+  for (int k : moved_drawn_) slot_[k] ^= 1;
   std::swap(q_, trial_q_);
-  sums_ = trial_sums_;
-  matched_ = trial_matched_;
-  counts_ = total(sums_, matched_);
+  counts_ = trial_counts_;
   pending_ = false;
 }
 
@@ -196,15 +170,11 @@ long IncrementalBodyEvaluator::movedOverRest(std::size_t c, Moved which) {
   return matched;
 }
 
-void IncrementalBodyEvaluator::sumMovedCounts(Moved which) {
-  for (int k : moved_drawn_) {
-    SegmentCounts& sum = trial_counts_[k];
-    sum = SegmentCounts();
-    for (std::size_t c = 0; c < cameras_; ++c) {
-      const PixelCounts& counts = footprint_counts_[slotIndex(k, c, slotOf(k, which))];
-      sum.area += counts.area;
-      sum.silhouette += counts.area - counts.outside;
-    }
+void IncrementalBodyEvaluator::addOwnCounts(int k, int slot, long sign, PixelCounts& to) const {
+  for (std::size_t c = 0; c < cameras_; ++c) {
+    const PixelCounts& own = footprint_counts_[slotIndex(k, c, slot)];
+    to.area += sign * own.area;
+    to.outside += sign * own.outside;
   }
 }
 
@@ -213,14 +183,6 @@ void IncrementalBodyEvaluator::draw(int k, std::size_t c, int slot, ShapeRasteri
   RowSpan* buffer = &spans_[slotIndex(k, c, slot) * max_rows_];
   footprint(k, c, slot) =
       rasterizer.rasterize(model_.segments[s].shape, kinematics_.world[s], rig_[c], buffer);
-}
-
-PixelCounts IncrementalBodyEvaluator::total(const SegmentCounts& sums, long matched) const {
-  PixelCounts counts;
-  counts.matched = matched;
-  counts.outside = sums.area - sums.silhouette;
-  counts.area = sums.area;
-  return counts;
 }
 
 }  // namespace mocap

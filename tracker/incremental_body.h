@@ -11,7 +11,6 @@
 // DOFs (the refinement tries each DOF both ways, accepted or not), so it is counted once per set.
 #pragma once
 
-#include <functional>
 #include <vector>
 
 #include "tracker/body_model.h"
@@ -45,13 +44,17 @@ class IncrementalBodyEvaluator {
   long renders() const { return renders_; }
 
  private:
-  struct SegmentCounts {
-    long area = 0;
-    long silhouette = 0;  // silhouette pixels inside the footprints, other segments ignored
-  };
-
   // Runs fn(camera, rasterizer) for every camera, on the pool's workers if there are several.
-  void forEachCamera(const std::function<void(std::size_t, ShapeRasterizer&)>& fn);
+  template <typename Fn>
+  void forEachCamera(const Fn& fn) {
+    if (!pool_ || pool_->size() == 1) {
+      for (std::size_t c = 0; c < cameras_; ++c) fn(c, rasterizers_[0]);
+      return;
+    }
+    pool_->parallelFor(static_cast<int>(cameras_), [&](int c, int worker) {
+      fn(static_cast<std::size_t>(c), rasterizers_[worker]);
+    });
+  }
   // Rasterizes drawn segment k at its placed pose into slot `slot` of camera c.
   void draw(int k, std::size_t c, int slot, ShapeRasterizer& rasterizer);
   // Which footprints of the moved drawn segments movedOverRest counts: the trial's, the current
@@ -64,15 +67,14 @@ class IncrementalBodyEvaluator {
   // Makes camera c's explained footprints of the rest those of the trial's moved set, and returns
   // its part of matched(R): counted directly (rest_direct_) or what the current moved set adds.
   long restFor(std::size_t c);
-  // Each moved drawn segment's own counts over the cameras, from the footprints of `which`.
-  void sumMovedCounts(Moved which);
+  // Adds `sign` times drawn segment k's own area and outside pixels in `slot`, over the cameras.
+  void addOwnCounts(int k, int slot, long sign, PixelCounts& to) const;
   // The slot of drawn segment k that holds the footprints `which` names.
   int slotOf(int k, Moved which) const { return which == Moved::kTrial ? 1 - slot_[k] : slot_[k]; }
   std::size_t slotIndex(int k, std::size_t c, int slot) const {
     return (static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c;
   }
   Footprint& footprint(int k, std::size_t c, int slot) { return footprints_[slotIndex(k, c, slot)]; }
-  PixelCounts total(const SegmentCounts& sums, long matched) const;
 
   const BodyModel& model_;
   const Rig& rig_;
@@ -94,10 +96,7 @@ class IncrementalBodyEvaluator {
   // pose's moved set is recounted over a new rest on the rows the rest covers only.
   std::vector<PixelCounts> footprint_counts_;
   std::vector<int> slot_;                     // per drawn segment: the current pose's slot
-  std::vector<SegmentCounts> segment_counts_, trial_counts_;  // per drawn segment
-  SegmentCounts sums_, trial_sums_;
-  long matched_ = 0, trial_matched_ = 0;
-  PixelCounts counts_;
+  PixelCounts counts_, trial_counts_;         // the whole body at the current pose, at the trial
 
   bool pending_ = false;
   std::vector<char> moved_flag_;  // per segment, scratch of trial()
