@@ -26,6 +26,22 @@ bool CameraModel::project(const Eigen::Vector3d& world, Eigen::Vector2d& pixel) 
   return true;
 }
 
+Eigen::Vector3d CameraModel::backProject(const Eigen::Vector2d& pixel) const {
+  const double xd = (pixel.x() - cx) / fx;
+  const double yd = (pixel.y() - cy) / fy;
+  const auto& [k1, k2, p1, p2, k3] = distortion;
+  double x = xd, y = yd;
+  // The distortion is a small correction within the image, so x = (xd - tangential) / radial
+  // converges in a few rounds; 20 bring it to the rounding of a double for lenses seen here.
+  for (int i = 0; i < 20; ++i) {
+    const double r2 = x * x + y * y;
+    const double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    x = (xd - 2 * p1 * x * y - p2 * (r2 + 2 * x * x)) / radial;
+    y = (yd - p1 * (r2 + 2 * y * y) - 2 * p2 * x * y) / radial;
+  }
+  return (rotation.transpose() * Eigen::Vector3d(x, y, 1)).normalized();
+}
+
 CameraModel CameraModel::lookAt(const std::string& name, const Eigen::Vector3d& eye,
                                 const Eigen::Vector3d& target, const Eigen::Vector3d& up,
                                 int width, int height, double focal_px) {

@@ -32,6 +32,10 @@ struct CameraModel {
   bool project(const Eigen::Vector3d& world, Eigen::Vector2d& pixel) const;
   // Camera centre in world coordinates.
   Eigen::Vector3d center() const { return -rotation.transpose() * translation; }
+  // The unit direction, in world coordinates, of the ray from the centre through `pixel`: the
+  // inverse of project() (the distortion undone by fixed-point iteration, as OpenCV's
+  // undistortPoints does).
+  Eigen::Vector3d backProject(const Eigen::Vector2d& pixel) const;
 
   // A distortion-free camera at `eye` looking at `target`, image "up" as close to `up` as possible.
   static CameraModel lookAt(const std::string& name, const Eigen::Vector3d& eye,

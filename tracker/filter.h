@@ -103,6 +103,9 @@ struct FrameEstimate {
   long evaluations = 0;       // particle evaluations spent this frame (the paper's count)
   long segment_renders = 0;   // segment rasterizations (the compute actually spent)
   bool cut_short = false;     // optional work (the refinement) ended early: see PoseFilter::setYield
+  // False when the filter has no pose to give: an acquiring filter that found no subject in the
+  // frame (q is then meaningless). Every filter given a starting pose always has one.
+  bool found = true;
 };
 
 class PoseFilter {

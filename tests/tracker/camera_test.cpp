@@ -50,6 +50,24 @@ TEST(Camera, ProjectionMatchesOpenCvProjectPoints) {
   }
 }
 
+TEST(Camera, BackProjectionIsTheRayThroughTheProjectedPoint) {
+  const CameraModel cam = distortedCamera();
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  double worst = 0;
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d world(u(rng), u(rng), 0.9 + u(rng));
+    Eigen::Vector2d px;
+    ASSERT_TRUE(cam.project(world, px));
+    const Eigen::Vector3d ray = cam.backProject(px);
+    EXPECT_NEAR(ray.norm(), 1.0, 1e-12);
+    const Eigen::Vector3d to_point = world - cam.center();
+    ASSERT_GT(to_point.dot(ray), 0) << "the ray points away from the point";
+    worst = std::max(worst, (to_point - to_point.dot(ray) * ray).norm());
+  }
+  EXPECT_LT(worst, 1e-7);  // metres: the distortion undone to far below a pixel
+}
+
 TEST(Camera, LookAtPutsTheTargetAtThePrincipalPointWithZUpOnScreen) {
   const CameraModel cam = CameraModel::lookAt("c", Eigen::Vector3d(0, -3, 1), Eigen::Vector3d(0, 0, 1),
                                               Eigen::Vector3d::UnitZ(), 780, 580, 1000);

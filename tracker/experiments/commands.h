@@ -15,7 +15,8 @@ int runHandCommand(int argc, char** argv);
 inline constexpr const char* kHumanUsage =
     "human --motion FILE.bvh [--method factored|condensation|annealed] [--evals N] [--cameras N]\n"
     "       [--frames N] [--seed S] [--dofs 31|17] [--noise none|realistic] [--threads N]\n"
-    "       [--start-offset none|arm60|body30cm] [--injection SHARE] [--inject dof|segment]\n"
+    "       [--start-offset none|arm60|body30cm|acquire] [--start-frame N]\n"
+    "       [--injection SHARE] [--inject dof|segment]\n"
     "       [--keep K] [--samples S] [--layers M] [--lookahead none|root|subtree|body]\n"
     "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
     "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"

@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tracker/acquire.h"
 #include "tracker/bvh.h"
 #include "tracker/experiments/args.h"
 #include "tracker/experiments/commands.h"
@@ -71,7 +72,7 @@ Eigen::VectorXd misplaced(const BodyModel& model, Eigen::VectorXd q, const std::
     q[model.dofIndex("root_tx")] += 0.3;
     return q;
   }
-  throw std::invalid_argument("--start-offset: expected none, arm60 or body30cm, got '" + offset + "'");
+  throw std::invalid_argument("--start-offset: expected none, arm60, body30cm or acquire, got '" + offset + "'");
 }
 
 // Every camera's true silhouette (grey) with the outline of the estimate's (red), for looking at
@@ -167,8 +168,13 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       config.model_path.empty() ? builtinHumanModel() : loadBodyModel(config.model_path);
   const Bvh bvh = loadBvh(config.motion_path);
   const BodyModel fitted = fitModelToBvh(base, bvh.skeleton);
-  const RetargetResult retarget = retargetBvh(fitted, bvh.skeleton, bvh.motion, 25, config.frames);
+  const RetargetResult retarget =
+      retargetBvh(fitted, bvh.skeleton, bvh.motion, 25, config.start_frame + config.frames);
   Motion truth = retarget.motion;
+  if (config.start_frame >= static_cast<int>(truth.size()))
+    throw std::invalid_argument("--start-frame: the motion has only " + std::to_string(truth.size()) +
+                                " frames at 25 Hz");
+  truth.erase(truth.begin(), truth.begin() + config.start_frame);
   const int frames = std::min<int>(config.frames, static_cast<int>(truth.size()));
 
   // Gait mode: the 17 gait DOFs move, the rest stay neutral in the truth and in the tracker.
@@ -192,8 +198,17 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   WorkerPool pool(config.threads);
   // The model at a rate 1/k times its own has k times its speed limits per frame.
   const BodyModel tracked = atFrameRate(model, model.frame_rate / config.speed_scale);
-  std::unique_ptr<PoseFilter> filter = makeFilter(config.method, tracked, rig, options, pool);
-  filter->reset(misplaced(model, truth[0], config.start_offset));
+  std::unique_ptr<PoseFilter> filter;
+  if (config.start_offset == "acquire") {
+    // No true first pose: the filter finds the body in the first frames' silhouettes, standing in
+    // the neutral stance, as mocapd starts on real cameras.
+    filter = std::make_unique<AcquiringFilter>(
+        tracked, rig, tracked.neutralPose(), options.likelihood,
+        [&] { return makeFilter(config.method, tracked, rig, options, pool); });
+  } else {
+    filter = makeFilter(config.method, tracked, rig, options, pool);
+    filter->reset(misplaced(model, truth[0], config.start_offset));
+  }
 
   SceneRenderer renderer(model, rig);
   const int missed_limb = model.segmentIndex("l_forearm");
@@ -367,6 +382,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"ground_truth_fit_residual_mm", residual_count ? residual / residual_count : 0.0},
   };
   if (config.reset_every > 0) out["reset_every"] = config.reset_every;
+  if (config.start_frame > 0) out["start_frame"] = config.start_frame;
   if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
   if (config.skip_rate > 0) {
     out["skip_rate"] = config.skip_rate;
@@ -397,6 +413,7 @@ int runHumanCommand(int argc, char** argv) {
   config.dofs = static_cast<int>(args.integer("dofs", config.dofs, 17, 31));
   config.noise = args.text("noise", config.noise);
   config.start_offset = args.text("start-offset", config.start_offset);
+  config.start_frame = static_cast<int>(args.integer("start-frame", 0, 0, 1'000'000));
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
   config.reset_every = static_cast<int>(args.integer("reset-every", 0, 0, 1'000'000));
   config.speed_scale = args.real("speed-scale", 1.0, 0.01, 100.0);

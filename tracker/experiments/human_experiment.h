@@ -49,7 +49,9 @@ struct HumanExperimentConfig {
   uint64_t seed = 1;
   int dofs = 31;                    // 31 or 17 (gait)
   std::string noise = "none";       // none | realistic
-  std::string start_offset = "none";  // none | arm60 | body30cm
+  // none | arm60 | body30cm | acquire (no true first pose: the tracker finds the body itself)
+  std::string start_offset = "none";
+  int start_frame = 0;  // the motion's first frames skipped: the scene starts at this one
   int threads = 0;
   // Diagnosis of the search alone: every `reset_every` frames (0: never) the filter restarts from
   // the true pose of the frame before, so errors cannot build up; 1 gives the one-step error.

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <string>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 namespace mocap {
@@ -87,6 +88,32 @@ TEST(HumanExperiment, LostFramesOfABodyOffAreSearchFailures) {
   EXPECT_EQ(out["lost_frames_truth_ahead"], 2);
   config.trace_path.clear();
   EXPECT_FALSE(runHumanExperiment(config).contains("lost_frames_truth_ahead"));
+}
+
+// --start-offset acquire: no true first pose; the tracker finds the body itself and counts the
+// evaluations of every hypothesis it tries. --start-frame starts the scene later in the motion.
+TEST(HumanExperiment, AcquireFindsTheBodyFromAnyStartFrame) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config;
+  config.motion_path = kWalk;
+  config.frames = 2;
+  config.cameras = 2;
+  config.threads = 1;
+  config.evaluations = 300;
+  config.start_offset = "acquire";
+  config.start_frame = 40;
+  const nlohmann::json out = runHumanExperiment(config);
+  EXPECT_EQ(out["start_offset"], "acquire");
+  EXPECT_EQ(out["start_frame"], 40);
+  EXPECT_GT(out["evals_per_frame"].get<double>(), 2 * 300) << out.dump();
+  EXPECT_LT(out["max_frame_mpjpe_mm"].get<double>(), 500) << out.dump();  // found, if not fitted
+  config.start_frame = 100000;
+  try {
+    runHumanExperiment(config);
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("--start-frame: the motion has only 208 frames"));
+  }
 }
 
 TEST(HumanExperiment, BadOptionsAreNamed) {

@@ -1,0 +1,340 @@
+// Acquisition: silhouette centroid rays triangulated, the stance placed there at each heading, and
+// the best headings searched locally on the full-body likelihood.
+#include "tracker/acquire.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+#include "tracker/full_body.h"
+#include "tracker/kinematics.h"
+
+namespace mocap {
+namespace {
+
+// The root's DOFs that place and turn the body: translations along world X, Y, Z (Z optional)
+// and the rotation about Z. -1 where absent.
+struct RootDofs {
+  int x = -1, y = -1, z = -1, yaw = -1;
+};
+
+RootDofs findRootDofs(const BodyModel& model) {
+  RootDofs root;
+  if (model.segments.empty()) return root;
+  for (int d : model.segments[0].dofs) {
+    const Dof& dof = model.dofs[d];
+    if (!dof.isFree()) continue;
+    const Eigen::Vector3d& a = dof.axis;
+    if (dof.type == DofType::kTranslation) {
+      if (a.isApprox(Eigen::Vector3d::UnitX()) && root.x < 0) root.x = d;
+      if (a.isApprox(Eigen::Vector3d::UnitY()) && root.y < 0) root.y = d;
+      if (a.isApprox(Eigen::Vector3d::UnitZ()) && root.z < 0) root.z = d;
+    } else if (a.isApprox(Eigen::Vector3d::UnitZ()) && root.yaw < 0 && root.x >= 0 && root.y >= 0) {
+      // Only a rotation after the translations turns the body about its own vertical.
+      root.yaw = d;
+    }
+  }
+  return root;
+}
+
+// The centroid of the body's volume (each shape a solid of uniform density), world frame.
+Eigen::Vector3d bodyCentroid(const BodyModel& model, const KinematicsData& kinematics) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double volume = 0;
+  for (std::size_t s = 0; s < model.segments.size(); ++s) {
+    const Shape& shape = model.segments[s].shape;
+    double v = 0;
+    Eigen::Vector3d local;
+    if (shape.type == ShapeType::kEllipsoid) {
+      v = 4.0 / 3.0 * M_PI * shape.radii.prod();
+      local = shape.center;
+    } else if (shape.type == ShapeType::kTruncatedCone) {
+      const double a = shape.radius_start, b = shape.radius_end;
+      const double sq = a * a + a * b + b * b;
+      v = M_PI * shape.length * sq / 3.0;
+      // The frustum's centroid from its wide or narrow end, along the axis.
+      local = shape.axis.normalized() * (shape.length * (a * a + 2 * a * b + 3 * b * b) / (4 * sq));
+    } else {
+      continue;
+    }
+    sum += v * (kinematics.world[s] * local);
+    volume += v;
+  }
+  return volume > 0 ? Eigen::Vector3d(sum / volume) : kinematics.world[0].translation();
+}
+
+double wrapInto(double angle, const Dof& dof) {
+  // Turns by whole turns into the DOF's range where one fits (the human's yaw spans ±360°).
+  while (angle > dof.max && angle - 2 * M_PI >= dof.min) angle -= 2 * M_PI;
+  while (angle < dof.min && angle + 2 * M_PI <= dof.max) angle += 2 * M_PI;
+  return std::clamp(angle, dof.min, dof.max);
+}
+
+}  // namespace
+
+bool canAcquire(const BodyModel& model) {
+  const RootDofs root = findRootDofs(model);
+  return root.x >= 0 && root.y >= 0 && root.yaw >= 0;
+}
+
+std::string whyCannotAcquire(const BodyModel& model) {
+  return "the body model '" + model.name +
+         "' has no free root translations along X and Y and rotation about Z to place it by";
+}
+
+std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
+                                          const std::vector<SilhouetteMask>& masks,
+                                          const Eigen::VectorXd& stance,
+                                          const LikelihoodParams& likelihood,
+                                          const AcquireOptions& options, std::string* why_not) {
+  if (!canAcquire(model)) throw std::invalid_argument("acquisition: " + whyCannotAcquire(model));
+  const RootDofs root = findRootDofs(model);
+  if (masks.size() != rig.size())
+    throw std::invalid_argument("acquisition: expected one silhouette per camera");
+  if (stance.size() != static_cast<long>(model.dofs.size()))
+    throw std::invalid_argument("acquisition: the stance has the wrong number of DOFs");
+  if (options.headings < 1 || options.searched_headings < 1 || options.search_evaluations < 0)
+    throw std::invalid_argument("acquisition: headings and searched headings must be >= 1");
+  auto fail = [&](const std::string& why) {
+    if (why_not) *why_not = why;
+    return std::vector<Acquisition>();
+  };
+
+  // Least squares: the point nearest every centroid ray, sum (I - d d^T)(P - C) = 0.
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  int seeing = 0;
+  std::string seen;
+  for (std::size_t c = 0; c < rig.size(); ++c) {
+    if (masks[c].width() != rig[c].width || masks[c].height() != rig[c].height)
+      throw std::invalid_argument("acquisition: camera " + std::to_string(c) +
+                                  "'s silhouette differs in size from the camera");
+    const cv::Moments m = cv::moments(masks[c].toMat(), true);
+    seen += (c ? ", " : "") + std::to_string(static_cast<long>(m.m00));
+    if (m.m00 < static_cast<double>(options.min_silhouette_pixels)) continue;
+    const Eigen::Vector3d d = rig[c].backProject(Eigen::Vector2d(m.m10 / m.m00, m.m01 / m.m00));
+    const Eigen::Matrix3d away = Eigen::Matrix3d::Identity() - d * d.transpose();
+    normal += away;
+    rhs += away * rig[c].center();
+    ++seeing;
+  }
+  if (seeing < 2)
+    return fail("no subject: " + std::to_string(seeing) + " camera(s) see at least " +
+                std::to_string(options.min_silhouette_pixels) +
+                " silhouette pixels, two are needed (pixels per camera: " + seen + ")");
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(normal);
+  if (eigen.eigenvalues()(0) < 1e-3)
+    return fail("the cameras that see the subject look along nearly the same line; its distance "
+                "cannot be told");
+  const Eigen::Vector3d centre = normal.ldlt().solve(rhs);
+
+  FullBodyEvaluator evaluator(model, rig, likelihood.points_per_circle, 1);
+  KinematicsData kinematics(model);
+  int evaluations = 0;
+  auto score = [&](const Eigen::VectorXd& q) {
+    ++evaluations;
+    return logLikelihood(likelihood, evaluator.evaluate(q, masks, 0));
+  };
+  // The stance at heading h, moved so its centroid is the triangulated point.
+  auto placed = [&](double heading) {
+    Eigen::VectorXd q = stance;
+    q[root.yaw] = wrapInto(heading, model.dofs[root.yaw]);
+    forwardKinematics(model, kinematics, q);
+    const Eigen::Vector3d shift = centre - bodyCentroid(model, kinematics);
+    q[root.x] += shift.x();
+    q[root.y] += shift.y();
+    if (root.z >= 0) q[root.z] += shift.z();
+    clampToLimits(model, q);
+    return q;
+  };
+
+  struct Start {
+    Eigen::VectorXd q;
+    double value;
+  };
+  std::vector<Start> scanned;
+  for (int h = 0; h < options.headings; ++h) {
+    Eigen::VectorXd q = placed(2 * M_PI * h / options.headings);
+    const double value = score(q);
+    scanned.push_back({std::move(q), value});
+  }
+  std::stable_sort(scanned.begin(), scanned.end(),
+                   [](const Start& a, const Start& b) { return a.value > b.value; });
+  // The best headings at least 90 degrees apart: a standing body's silhouettes are nearly the same
+  // facing either way, so the one turned round is kept to be told apart by its limbs.
+  std::vector<Start> starts;
+  for (Start& candidate : scanned) {
+    if (static_cast<int>(starts.size()) == options.searched_headings) break;
+    const bool apart = std::all_of(starts.begin(), starts.end(), [&](const Start& taken) {
+      return std::abs(std::remainder(candidate.q[root.yaw] - taken.q[root.yaw], 2 * M_PI)) >=
+             M_PI / 3 - 1e-9;
+    });
+    if (apart) starts.push_back(std::move(candidate));
+  }
+
+  // Coordinate search: a step that improves is kept and grows, one that fails both ways halves,
+  // until every step is finer than `finest` or the budget is spent.
+  auto search = [&](Start& start, const std::vector<int>& dofs, const std::vector<double>& first_step,
+                    const std::vector<double>& finest, int budget) {
+    std::vector<double> step = first_step;
+    bool moving = true;
+    while (budget > 0 && moving) {
+      moving = false;
+      for (std::size_t i = 0; i < dofs.size() && budget > 0; ++i) {
+        if (step[i] < finest[i]) continue;
+        moving = true;
+        bool improved = false;
+        for (double sign : {1.0, -1.0}) {
+          if (budget <= 0) break;
+          const Dof& dof = model.dofs[dofs[i]];
+          Eigen::VectorXd tried = start.q;
+          tried[dofs[i]] = std::clamp(start.q[dofs[i]] + sign * step[i], dof.min, dof.max);
+          --budget;
+          const double v = score(tried);
+          if (v > start.value) {
+            start.q = std::move(tried);
+            start.value = v;
+            step[i] *= 1.5;
+            improved = true;
+            break;
+          }
+        }
+        if (!improved) step[i] *= 0.5;
+      }
+    }
+  };
+  // First the root's place and heading, then every free DOF: the limbs, fitted, tell the heading
+  // the stance alone could not (a knee bends one way only).
+  std::vector<int> root_dofs = {root.x, root.y, root.yaw};
+  std::vector<double> root_step = {0.1, 0.1, M_PI / options.headings / 2};
+  std::vector<double> root_finest = {0.005, 0.005, M_PI / 360};
+  if (root.z >= 0) {
+    root_dofs.push_back(root.z);
+    root_step.push_back(0.05);
+    root_finest.push_back(0.005);
+  }
+  std::vector<int> all_dofs;
+  std::vector<double> all_step, all_finest;
+  for (std::size_t d = 0; d < model.dofs.size(); ++d) {
+    if (!model.dofs[d].isFree()) continue;
+    const bool metres = model.dofs[d].type == DofType::kTranslation;
+    all_dofs.push_back(static_cast<int>(d));
+    all_step.push_back(metres ? 0.05 : M_PI / 12);
+    all_finest.push_back(metres ? 0.005 : M_PI / 180);
+  }
+  std::vector<Acquisition> found;
+  for (Start& start : starts) {
+    search(start, root_dofs, root_step, root_finest, options.search_evaluations);
+    search(start, all_dofs, all_step, all_finest, options.fit_evaluations);
+    found.push_back({std::move(start.q), start.value, centre, 0});
+  }
+  std::stable_sort(found.begin(), found.end(), [](const Acquisition& a, const Acquisition& b) {
+    return a.log_likelihood > b.log_likelihood;
+  });
+  // Searches that ended facing the same way (within 45 degrees) found one hypothesis: the best
+  // of them stands for it.
+  std::vector<Acquisition> distinct;
+  for (Acquisition& a : found) {
+    const bool apart = std::all_of(distinct.begin(), distinct.end(), [&](const Acquisition& kept) {
+      return std::abs(std::remainder(a.q[root.yaw] - kept.q[root.yaw], 2 * M_PI)) >= M_PI / 4;
+    });
+    if (!apart) continue;
+    a.evaluations = evaluations;
+    distinct.push_back(std::move(a));
+  }
+  return distinct;
+}
+
+AcquiringFilter::AcquiringFilter(const BodyModel& model, const Rig& rig, Eigen::VectorXd stance,
+                                 const LikelihoodParams& likelihood, FilterFactory make_filter,
+                                 int trial_frames, const AcquireOptions& options)
+    : model_(model),
+      rig_(rig),
+      stance_(std::move(stance)),
+      likelihood_(likelihood),
+      make_filter_(std::move(make_filter)),
+      trial_frames_(trial_frames),
+      options_(options),
+      scorer_(model, rig, likelihood.points_per_circle, 1) {
+  if (!canAcquire(model)) throw std::invalid_argument("acquisition: " + whyCannotAcquire(model));
+  if (trial_frames < 1) throw std::invalid_argument("acquisition: trial frames must be >= 1");
+}
+
+std::string AcquiringFilter::name() const {
+  return hypotheses_.empty() ? "acquiring" : hypotheses_.front().filter->name();
+}
+
+void AcquiringFilter::reset(const Eigen::VectorXd& q0) {
+  hypotheses_.clear();
+  hypotheses_.push_back({make_filter_(), 0});
+  hypotheses_.front().filter->setYield(yield_);
+  hypotheses_.front().filter->reset(q0);
+  trial_frames_left_ = 0;
+}
+
+void AcquiringFilter::reacquire() {
+  hypotheses_.clear();
+  trial_frames_left_ = 0;
+}
+
+void AcquiringFilter::setYield(std::function<bool()> newer_frame_waiting) {
+  yield_ = std::move(newer_frame_waiting);
+  for (Hypothesis& h : hypotheses_) h.filter->setYield(yield_);
+}
+
+FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
+  long acquisition_evaluations = 0;
+  if (hypotheses_.empty()) {
+    const std::vector<Acquisition> found =
+        acquireSubject(model_, rig_, masks, stance_, likelihood_, options_, &last_failure_);
+    if (found.empty()) {
+      FrameEstimate none;
+      none.q = stance_;
+      none.found = false;
+      return none;
+    }
+    last_failure_.clear();
+    ++acquisitions_;
+    acquisition_evaluations = found.front().evaluations;
+    for (const Acquisition& a : found) {
+      hypotheses_.push_back({make_filter_(), 0});
+      hypotheses_.back().filter->setYield(yield_);
+      hypotheses_.back().filter->reset(a.q);
+    }
+    trial_frames_left_ = hypotheses_.size() > 1 ? trial_frames_ : 0;
+  }
+  if (trial_frames_left_ == 0) return hypotheses_.front().filter->step(masks);
+
+  // Each hypothesis tracks the frame and is scored on it; the one ahead so far is the estimate.
+  FrameEstimate ahead;
+  double best = -INFINITY;
+  long evaluations = acquisition_evaluations, renders = 0;
+  bool cut_short = false;
+  for (Hypothesis& h : hypotheses_) {
+    FrameEstimate e = h.filter->step(masks);
+    h.score += logLikelihood(likelihood_, scorer_.evaluate(e.q, masks, 0));
+    evaluations += e.evaluations + 1;
+    renders += e.segment_renders + scorer_.drawnSegments();
+    cut_short = cut_short || e.cut_short;
+    if (h.score > best) {
+      best = h.score;
+      ahead = std::move(e);
+    }
+  }
+  ahead.evaluations = evaluations;
+  ahead.segment_renders = renders;
+  ahead.cut_short = cut_short;
+  if (--trial_frames_left_ == 0) {
+    auto winner = std::max_element(hypotheses_.begin(), hypotheses_.end(),
+                                   [](const Hypothesis& a, const Hypothesis& b) { return a.score < b.score; });
+    Hypothesis kept = std::move(*winner);
+    hypotheses_.clear();
+    hypotheses_.push_back(std::move(kept));
+  }
+  return ahead;
+}
+
+}  // namespace mocap

@@ -1,0 +1,108 @@
+// Finding the subject without being told where it stands: the pose a tracker starts from (or
+// restarts from once lost) when no true first pose is known, as with real cameras.
+//
+// The paper starts its tracker at a known pose. A capture volume only knows its silhouettes, so
+// the subject is placed where they meet: the rays through each camera's silhouette centroid are
+// triangulated, the body in an assumed stance (standing, arms down) is put with its centroid
+// there, facing each of several headings, and the best headings (one of them turned round: a
+// standing body looks much the same either way) are searched locally on the full-body likelihood,
+// first the root's place and heading, then every DOF, and the better fit wins. The filter then
+// tracks from it as it recovers from any misplaced pose (paper §8.3).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <functional>
+#include <memory>
+
+#include "tracker/body_model.h"
+#include "tracker/camera.h"
+#include "tracker/filter.h"
+#include "tracker/full_body.h"
+#include "tracker/likelihood.h"
+#include "tracker/silhouette_mask.h"
+
+namespace mocap {
+
+struct AcquireOptions {
+  int headings = 12;           // over a full turn, tried at the triangulated position
+  int searched_headings = 4;   // the best ones at least 60 degrees apart, each searched locally
+  int search_evaluations = 120;  // per searched heading: the root's place and heading
+  int fit_evaluations = 600;     // per searched heading, then: every free DOF
+  long min_silhouette_pixels = 400;  // a camera with fewer sees no subject
+};
+
+struct Acquisition {
+  Eigen::VectorXd q;                  // the stance, placed, turned and fitted
+  double log_likelihood = 0;          // of q, as the filters score a whole body
+  Eigen::Vector3d silhouette_centre;  // where the centroid rays met (world, metres)
+  int evaluations = 0;                // full-body evaluations spent on all hypotheses
+};
+
+// The subject seen by `masks` (one per camera of `rig`), in `stance` with the root's position and
+// heading replaced, then fitted: one hypothesis per searched heading, best first. Empty, with the
+// reason in *why_not, when fewer than two cameras see enough silhouette or their rays cannot
+// place it. Throws std::invalid_argument if the model's root has
+// no free translations along X and Y and rotation about Z (the hand: its palm is fixed), or the
+// masks do not match the rig.
+std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
+                                          const std::vector<SilhouetteMask>& masks,
+                                          const Eigen::VectorXd& stance,
+                                          const LikelihoodParams& likelihood,
+                                          const AcquireOptions& options = {},
+                                          std::string* why_not = nullptr);
+
+// A filter that finds the subject itself. Its first step (and the first after reacquire()) calls
+// acquireSubject on the frame; each hypothesis is then tracked by its own filter for
+// `trial_frames` frames (a standing body's silhouettes hardly tell which way it faces; a moving
+// one's soon do), and the one whose estimates scored best in total is kept. Meanwhile each step
+// gives the estimate of the hypothesis ahead so far, and its evaluations count every
+// hypothesis's. A frame in which no subject is found gives found = false, and the next one tries
+// again. reset(q0) starts from a known pose instead, with no acquisition.
+class AcquiringFilter final : public PoseFilter {
+ public:
+  using FilterFactory = std::function<std::unique_ptr<PoseFilter>()>;
+  // The model and rig are borrowed. `stance` is the pose the subject is assumed to stand in.
+  AcquiringFilter(const BodyModel& model, const Rig& rig, Eigen::VectorXd stance,
+                  const LikelihoodParams& likelihood, FilterFactory make_filter,
+                  int trial_frames = 10, const AcquireOptions& options = {});
+
+  std::string name() const override;
+  void reset(const Eigen::VectorXd& q0) override;
+  FrameEstimate step(const std::vector<SilhouetteMask>& masks) override;
+  void setYield(std::function<bool()> newer_frame_waiting) override;
+
+  // The next step finds the subject again, whatever is being tracked.
+  void reacquire();
+  // Acquisitions that found a subject so far; why the last attempt found none ("" if it did).
+  int acquisitions() const { return acquisitions_; }
+  const std::string& lastFailure() const { return last_failure_; }
+
+ private:
+  struct Hypothesis {
+    std::unique_ptr<PoseFilter> filter;
+    double score = 0;  // the sum of its estimates' log-likelihoods
+  };
+
+  const BodyModel& model_;
+  const Rig& rig_;
+  Eigen::VectorXd stance_;
+  LikelihoodParams likelihood_;
+  FilterFactory make_filter_;
+  int trial_frames_;
+  AcquireOptions options_;
+  FullBodyEvaluator scorer_;
+  std::function<bool()> yield_;
+  std::vector<Hypothesis> hypotheses_;  // one once decided; empty until a subject is found
+  int trial_frames_left_ = 0;
+  int acquisitions_ = 0;
+  std::string last_failure_;
+};
+
+// True if acquireSubject can place this model (free root X and Y translations and Z rotation);
+// else why not, naming the model.
+bool canAcquire(const BodyModel& model);
+std::string whyCannotAcquire(const BodyModel& model);
+
+}  // namespace mocap
