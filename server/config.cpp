@@ -175,7 +175,7 @@ class ConfigParser {
     onlyKeys(tracker, "tracker",
              {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
               "refine", "refine_hold", "refine_plant", "refine_swap", "refine_restarts",
-              "refine_facing_prior", "dofs"});
+              "refine_facing_prior", "dofs", "start"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -225,6 +225,12 @@ class ConfigParser {
       t.dofs = text(tracker["dofs"], "tracker.dofs");
       if (t.dofs != "all" && t.dofs != "gait")
         fail(tracker["dofs"], "tracker.dofs", "expected all or gait, got '" + t.dofs + "'");
+    }
+    if (tracker["start"]) {
+      t.start = text(tracker["start"], "tracker.start");
+      if (t.start != "auto" && t.start != "acquire" && t.start != "neutral")
+        fail(tracker["start"], "tracker.start",
+             "expected auto, acquire or neutral, got '" + t.start + "'");
     }
   }
 
@@ -422,7 +428,8 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"refine_swap", !refine_swap ? "false" : refine_swap_knees ? "knees" : "true"},
           {"refine_restarts", exact(refine_restarts)},
           {"refine_facing_prior", exact(refine_facing_prior)},
-          {"dofs", dofs}};
+          {"dofs", dofs},
+          {"start", start}};
 }
 
 TrackerSettings replayTrackerSettings(const ServerConfig& config,

@@ -49,6 +49,11 @@ struct TrackerSettings {
   // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the
   // human's 17 of the lower body and trunk), the others held at the starting pose.
   std::string dofs = "all";
+  // Where tracking starts. "auto": live on the fake scene, its true first pose; otherwise the
+  // subject found in the silhouettes (tracker/acquire.h) when the body's root can be placed (a
+  // person), else the neutral pose (the hand). "acquire": always found (a body whose root cannot
+  // be placed is refused). "neutral": the body model's neutral pose.
+  std::string start = "auto";
 
   // The defaults when the tracked body is a person (body_model: builtin:human, a model file with
   // `kind: person`, or a scene_motion):

@@ -10,6 +10,7 @@
 
 #include "drivers/fake/fake_driver.h"
 #include "server/log.h"
+#include "tracker/acquire.h"
 #include "tracker/builtin_models.h"
 #include "tracker/bvh.h"
 #include "tracker/retarget.h"
@@ -213,6 +214,16 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
                                                                            : model.neutralPose();
     model = freezeAllBut(model, model.gait_dofs, hold);
   }
+  // tracker.start (config.h): the scene's true first pose, the subject found in the silhouettes,
+  // or the neutral pose.
+  const std::string& start = server->config_.tracker.start;
+  const bool placeable = canAcquire(*server->model_);
+  if (start == "acquire" && !placeable)
+    return Status::Error(config.source + ": tracker.start: acquire, but " +
+                         whyCannotAcquire(*server->model_));
+  if (start == "neutral") inputs.initial_pose = Eigen::VectorXd();
+  inputs.acquire =
+      start == "acquire" || (start == "auto" && inputs.initial_pose.size() == 0 && placeable);
 
   try {
     server->pipeline_ = std::make_unique<Pipeline>(server->config_, *server->model_,

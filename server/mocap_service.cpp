@@ -7,6 +7,7 @@
 #include "server/pose_stream.h"
 #include "server/proto_conversion.h"
 #include "server/stats.h"
+#include "tracker/acquire.h"
 
 namespace mocap {
 namespace {
@@ -146,6 +147,9 @@ grpc::ServerUnaryReactor* MocapServiceImpl::GetStatus(grpc::CallbackServerContex
   response->set_tracker_method(config_.tracker.method);
   response->set_evaluations_per_frame(status.evaluations_per_frame);
   response->set_refinements_cut(status.refinements_cut);
+  response->set_tracking(status.tracking);
+  response->set_search_failure(status.search_failure);
+  response->set_acquisitions(status.acquisitions);
   auto& settings = *response->mutable_tracker_settings();
   for (const auto& [key, value] : config_.tracker.keyValues()) settings[key] = value;
   settings["threads"] = std::to_string(config_.tracker.threads);
@@ -211,6 +215,24 @@ grpc::ServerUnaryReactor* MocapServiceImpl::CaptureBackground(
     reactor->Finish(backgroundStatus(result));
   });
   return reactor;
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::Reacquire(grpc::CallbackServerContext* context,
+                                                      const v1::ReacquireRequest*,
+                                                      v1::ReacquireResponse*) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  switch (pipeline_.reacquire()) {
+    case Pipeline::ReacquireError::kReplay:
+      return finish(context, grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                                          "replay: the poses depend on the recording alone"));
+    case Pipeline::ReacquireError::kCannotPlace:
+      return finish(context, grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                                          whyCannotAcquire(model_)));
+    case Pipeline::ReacquireError::kNone:
+      break;
+  }
+  logInfo() << "reacquisition requested by " << context->peer();
+  return finish(context, grpc::Status::OK);
 }
 
 }  // namespace mocap

@@ -40,6 +40,9 @@ class MocapServiceImpl final : public v1::MocapService::CallbackService {
   grpc::ServerUnaryReactor* CaptureBackground(grpc::CallbackServerContext* context,
                                               const v1::CaptureBackgroundRequest* request,
                                               v1::CaptureBackgroundResponse* response) override;
+  grpc::ServerUnaryReactor* Reacquire(grpc::CallbackServerContext* context,
+                                      const v1::ReacquireRequest* request,
+                                      v1::ReacquireResponse* response) override;
 
  private:
   // OK if no token is configured or the call carries "authorization: Bearer <token>".

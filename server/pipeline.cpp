@@ -87,13 +87,38 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   synchronizer_ = std::move(created.value());
 
   pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
-  filter_ = makeFilter(config.tracker.method, model_, rig_, config.tracker.filterOptions(), *pool_);
+  const FilterOptions options = config.tracker.filterOptions();
+  auto makeTrackerFilter = [this, options] {
+    return makeFilter(config_.tracker.method, model_, rig_, options, *pool_);
+  };
+  // A body that can be placed is tracked through an acquiring filter, so it can be found again
+  // on request; from a known pose that filter is the plain one.
+  if (canAcquire(model_)) {
+    auto acquiring = std::make_unique<AcquiringFilter>(model_, rig_, model_.neutralPose(),
+                                                       options.likelihood, makeTrackerFilter);
+    acquiring_ = acquiring.get();
+    filter_ = std::move(acquiring);
+  } else {
+    filter_ = makeTrackerFilter();
+  }
   // Live, a step's refinement gives way to a newer frame set rather than have it wait or be
   // dropped. Replay queues every set, so it never yields and stays repeatable.
   if (!config.replay()) filter_->setYield([this] { return masks_.waiting(); });
-  filter_->reset(inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
-                     ? inputs.initial_pose
-                     : model_.neutralPose());
+  if (inputs.acquire) {
+    if (!acquiring_) throw std::invalid_argument("tracker.start: the body's root cannot be placed");
+    tracking_ = false;
+  } else {
+    filter_->reset(inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
+                       ? inputs.initial_pose
+                       : model_.neutralPose());
+  }
+}
+
+Pipeline::ReacquireError Pipeline::reacquire() {
+  if (config_.replay()) return ReacquireError::kReplay;
+  if (!acquiring_) return ReacquireError::kCannotPlace;
+  reacquire_requested_ = true;
+  return ReacquireError::kNone;
 }
 
 Pipeline::~Pipeline() {
@@ -454,7 +479,15 @@ void Pipeline::trackerLoop() {
       if (masks_.closed()) break;
       continue;
     }
+    if (reacquire_requested_.exchange(false)) acquiring_->reacquire();
     const FrameEstimate estimate = filter_->step(masks->masks);
+    if (acquiring_) {
+      acquisitions_ = static_cast<uint64_t>(acquiring_->acquisitions());
+      std::lock_guard lock(search_mutex_);
+      search_failure_ = acquiring_->lastFailure();
+    }
+    tracking_ = estimate.found;
+    if (!estimate.found) continue;  // no subject in view: nothing to publish
     forwardKinematics(model_, kinematics_, estimate.q);
     auto pose = std::make_shared<Pose>();
     pose->frame_sequence = masks->sequence;
@@ -611,6 +644,12 @@ PipelineStatus Pipeline::status() const {
   status.poses_published = poses_published_;
   status.frame_sets_skipped = sync.sets_superseded + masks_.superseded() + poses_.superseded();
   status.evaluations_per_frame = evaluations_per_frame_;
+  status.tracking = tracking_;
+  status.acquisitions = acquisitions_;
+  {
+    std::lock_guard lock(search_mutex_);
+    status.search_failure = search_failure_;
+  }
   status.refinements_cut = refinements_cut_;
   status.latency = latency_.summary();
   std::lock_guard lock(recording_mutex_);

@@ -28,6 +28,7 @@
 #include "server/pose.h"
 #include "server/pose_publisher.h"
 #include "server/stats.h"
+#include "tracker/acquire.h"
 #include "tracker/body_model.h"
 #include "tracker/camera.h"
 #include "tracker/filter.h"
@@ -63,6 +64,9 @@ struct PipelineInputs {
   std::function<Eigen::VectorXd(uint64_t sequence)> reference_pose;
   // Where the subject starts; empty: the model's neutral pose.
   Eigen::VectorXd initial_pose;
+  // Instead: the tracker finds the subject in the first frame sets (tracker/acquire.h). Needs a
+  // body whose root can be placed (canAcquire).
+  bool acquire = false;
 };
 
 struct CameraRuntimeStatus {
@@ -89,6 +93,11 @@ struct PipelineStatus {
   uint64_t frame_sets_skipped = 0;  // live: superseded in the synchronizer or between stages
   double evaluations_per_frame = 0;
   uint64_t refinements_cut = 0;  // live: steps whose refinement gave way to a newer frame set
+  // False while the tracker looks for the subject (at start with PipelineInputs::acquire, after
+  // reacquire()): no pose is published then. search_failure says why the last look found none.
+  bool tracking = true;
+  std::string search_failure;
+  uint64_t acquisitions = 0;  // times the tracker found the subject by itself
   LatencySummary latency;
   RecordingStatus recording;
   // Saved backgrounds refused or ignored at start-up, one line each naming the file (also logged).
@@ -155,6 +164,12 @@ class Pipeline {
   // (the mask thread never waits on the disk). It must not block.
   void captureBackground(int frames, std::function<void(const BackgroundResult&)> done);
 
+  // Why reacquire() was refused, so the service can pick the gRPC code.
+  enum class ReacquireError { kNone, kReplay, kCannotPlace };
+  // The tracker finds the subject again from the next frame set, as at start. Refused in replay
+  // (its poses depend on the recording alone) and for a body whose root cannot be placed.
+  ReacquireError reacquire();
+
   PipelineStatus status() const;
   const std::vector<OpenedCamera>& cameras() const { return cameras_; }
   // The file camera `camera`'s background is saved to and loaded from: "<driver>-<camera id>" with
@@ -216,6 +231,7 @@ class Pipeline {
   // Tracker thread only, after construction.
   std::unique_ptr<WorkerPool> pool_;
   std::unique_ptr<PoseFilter> filter_;
+  AcquiringFilter* acquiring_ = nullptr;  // filter_ itself when the body can be placed
   KinematicsData kinematics_;
   KinematicsData reference_kinematics_;
 
@@ -225,6 +241,11 @@ class Pipeline {
   std::atomic<uint64_t> poses_published_{0};
   std::atomic<double> evaluations_per_frame_{0};
   std::atomic<uint64_t> refinements_cut_{0};
+  std::atomic<bool> reacquire_requested_{false};
+  std::atomic<bool> tracking_{true};
+  std::atomic<uint64_t> acquisitions_{0};
+  mutable std::mutex search_mutex_;
+  std::string search_failure_;
 
   // The recorder tap: the mask thread writes each frame set while a recording is open.
   mutable std::mutex recording_mutex_;

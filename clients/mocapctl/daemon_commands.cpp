@@ -203,6 +203,15 @@ int runRecord(int argc, char** argv) {
   return 0;
 }
 
+int runReacquire(int argc, char** argv) {
+  DaemonFlags flags;
+  noMoreArguments(parseDaemonFlags(argc, argv, flags));
+  DaemonClient client(flags);
+  mocap::v1::ReacquireResponse response;
+  check(client.stub().Reacquire(client.context().get(), {}, &response), "Reacquire");
+  return 0;
+}
+
 int runBvh(int argc, char** argv) {
   DaemonFlags flags;
   std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);

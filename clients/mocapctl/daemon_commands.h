@@ -11,6 +11,8 @@ inline constexpr const char* kStatusUsage = "status                   the daemon
 inline constexpr const char* kSkeletonUsage = "skeleton                 the tracked skeleton as JSON";
 inline constexpr const char* kRecordUsage =
     "record start [PATH] | record stop   (PATH relative to the daemon's recording directory)";
+inline constexpr const char* kReacquireUsage =
+    "reacquire                the tracker finds the subject again (poses resume once found)";
 inline constexpr const char* kBvhUsage = "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
 inline constexpr const char* kBenchUsage =
     "bench [--seconds N]      capture-to-pose-on-the-wire latency, sustained pose rate and,\n"
@@ -20,6 +22,7 @@ int runStream(int argc, char** argv);
 int runStatus(int argc, char** argv);
 int runSkeleton(int argc, char** argv);
 int runRecord(int argc, char** argv);
+int runReacquire(int argc, char** argv);
 int runBvh(int argc, char** argv);
 int runBench(int argc, char** argv);
 

@@ -20,6 +20,7 @@ constexpr Command kCommands[] = {
     {"status", mocapctl::kStatusUsage, mocapctl::runStatus},
     {"skeleton", mocapctl::kSkeletonUsage, mocapctl::runSkeleton},
     {"record", mocapctl::kRecordUsage, mocapctl::runRecord},
+    {"reacquire", mocapctl::kReacquireUsage, mocapctl::runReacquire},
     {"bvh", mocapctl::kBvhUsage, mocapctl::runBvh},
     {"bench", mocapctl::kBenchUsage, mocapctl::runBench},
 };

@@ -75,6 +75,10 @@ class MocapClient:
     def skeleton(self):
         return self._stub.GetSkeleton(self.pb.GetSkeletonRequest(), metadata=self._metadata)
 
+    def reacquire(self):
+        """Has the tracker find the subject again from the next frame set."""
+        return self._stub.Reacquire(self.pb.ReacquireRequest(), metadata=self._metadata)
+
     def health(self, service=""):
         """grpc.health.v1.Health/Check without its stubs (Debian ships none): the request is
         HealthCheckRequest{service}, the reply HealthCheckResponse{status}, both tiny enough to
@@ -105,7 +109,7 @@ def pose_to_dict(pose):
 
 def main():
     parser = argparse.ArgumentParser(description="Python client of mocapd")
-    parser.add_argument("command", choices=["stream", "status", "skeleton", "health"])
+    parser.add_argument("command", choices=["stream", "status", "skeleton", "health", "reacquire"])
     parser.add_argument("--server", default="127.0.0.1:50051")
     parser.add_argument("--token", default=os.environ.get("MOCAP_TOKEN"))
     parser.add_argument("--tls-ca")
@@ -131,6 +135,8 @@ def main():
             print(json_format.MessageToJson(client.status(), including_default_value_fields=True))
         elif args.command == "skeleton":
             print(json_format.MessageToJson(client.skeleton(), including_default_value_fields=True))
+        elif args.command == "reacquire":
+            client.reacquire()
         else:
             print(client.health())
     except client._grpc.RpcError as error:

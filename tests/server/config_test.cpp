@@ -232,6 +232,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},
       {cameras + "tracker: {dofs: arms}\n", "tracker.dofs: expected all or gait, got 'arms'"},
+      {cameras + "tracker: {start: somewhere}\n",
+       "tracker.start: expected auto, acquire or neutral, got 'somewhere'"},
       {cameras + "listen: nowhere\n", "test.yaml:3: listen:"},
       {cameras + "trackr: {}\n", "trackr: unknown key"},
       {"cameras:\n  - {driver: nosuch}\n", "cameras[0].driver: no driver 'nosuch'"},

@@ -353,6 +353,77 @@ TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
   EXPECT_EQ(setting("threads"), std::to_string(config.tracker.threads));
 }
 
+// As on real cameras, the tracker is not told where the person starts: it finds them in the
+// first frame sets' silhouettes, then tracks them.
+TEST_F(EndToEndTest, FindsAndTracksAPersonItIsNotToldTheStartOf) {
+  ServerConfig config = walkingPersonConfig();
+  config.tracker.start = "acquire";
+  std::unique_ptr<MocapServer> server = startServer(config);
+  ASSERT_TRUE(server);
+  auto stub = test::connect(server->port());
+  grpc::ClientContext stream_context;
+  auto reader = stub->StreamPoses(&stream_context, v1::StreamPosesRequest());
+  std::vector<double> errors;
+  v1::Pose pose;
+  while (errors.size() < 50 && reader->Read(&pose)) errors.push_back(pose.reference_error_mm());
+  stream_context.TryCancel();
+  ASSERT_EQ(errors.size(), 50u);
+  // The neutral stance at the origin, where it would start otherwise, is metres off. Found, the
+  // person is tracked: in the experiment from this walk's first frame, under 50 mm from the 4th.
+  std::vector<double> later(errors.begin() + 25, errors.end());
+  std::nth_element(later.begin(), later.begin() + 12, later.end());
+  EXPECT_LT(later[12], 50.0);
+  grpc::ClientContext status_context;
+  v1::Status status;
+  ASSERT_TRUE(stub->GetStatus(&status_context, {}, &status).ok());
+  EXPECT_TRUE(status.tracking());
+  EXPECT_EQ(status.acquisitions(), 1u);
+  EXPECT_EQ(status.search_failure(), "");
+  EXPECT_EQ(status.tracker_settings().at("start"), "acquire");
+}
+
+// A client that sees the poses have gone wrong asks the tracker to find the person again; the
+// hand, whose palm is fixed, cannot be found that way, and the daemon says so.
+TEST_F(EndToEndTest, ReacquireFindsThePersonAgainOrSaysWhyNot) {
+  {
+    std::unique_ptr<MocapServer> server = startServer(walkingPersonConfig());
+    ASSERT_TRUE(server);
+    auto stub = test::connect(server->port());
+    auto acquisitions = [&] {
+      grpc::ClientContext context;
+      v1::Status status;
+      EXPECT_TRUE(stub->GetStatus(&context, {}, &status).ok());
+      return status.acquisitions();
+    };
+    EXPECT_EQ(acquisitions(), 0u);  // started from the scene's true first pose
+    grpc::ClientContext context;
+    v1::ReacquireResponse response;
+    ASSERT_TRUE(stub->Reacquire(&context, {}, &response).ok());
+    // Found within the next frame sets (a generous limit, not a timing assertion).
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (acquisitions() == 0 && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_EQ(acquisitions(), 1u);
+  }
+  std::unique_ptr<MocapServer> hand = startServer(test::sceneConfig());
+  ASSERT_TRUE(hand);
+  auto stub = test::connect(hand->port());
+  grpc::ClientContext context;
+  v1::ReacquireResponse response;
+  const grpc::Status refused = stub->Reacquire(&context, {}, &response);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("'hand' has no free root"));
+  EXPECT_THAT(python("reacquire --server 127.0.0.1:" + std::to_string(hand->port())),
+              ::testing::HasSubstr("FAILED_PRECONDITION: the body model 'hand'"));
+  // Nor can it be told to start that way.
+  ServerConfig acquire_hand = test::sceneConfig();
+  acquire_hand.tracker.start = "acquire";
+  const Expected<std::unique_ptr<MocapServer>> refused_start = MocapServer::create(acquire_hand);
+  ASSERT_FALSE(refused_start.ok());
+  EXPECT_THAT(refused_start.error(),
+              ::testing::HasSubstr("tracker.start: acquire, but the body model 'hand'"));
+}
+
 // Speed limits are per frame: cameras at 50 Hz give the tracker frames half as far apart in time,
 // so it tracks the body with half the per-frame limits of the model's 25 Hz: a configured person,
 // the hand the fake scene brings, and the person fitted to a scene motion.
