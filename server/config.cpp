@@ -175,7 +175,7 @@ class ConfigParser {
     onlyKeys(tracker, "tracker",
              {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
               "refine", "refine_hold", "refine_plant", "refine_swap", "refine_restarts",
-              "refine_facing_prior", "dofs", "start"});
+              "refine_facing_prior", "dofs", "start", "lost_below", "lost_after"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -232,6 +232,10 @@ class ConfigParser {
         fail(tracker["start"], "tracker.start",
              "expected auto, acquire or neutral, got '" + t.start + "'");
     }
+    if (tracker["lost_below"])
+      t.lost_below = number(tracker["lost_below"], "tracker.lost_below", 0, 0.99);
+    if (tracker["lost_after"])
+      t.lost_after = integer(tracker["lost_after"], "tracker.lost_after", 1, 10'000);
   }
 
   ServerConfig parse(const YAML::Node& root) const {
@@ -429,7 +433,9 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"refine_restarts", exact(refine_restarts)},
           {"refine_facing_prior", exact(refine_facing_prior)},
           {"dofs", dofs},
-          {"start", start}};
+          {"start", start},
+          {"lost_below", exact(lost_below)},
+          {"lost_after", std::to_string(lost_after)}};
 }
 
 TrackerSettings replayTrackerSettings(const ServerConfig& config,

@@ -54,6 +54,11 @@ struct TrackerSettings {
   // person), else the neutral pose (the hand). "acquire": always found (a body whose root cannot
   // be placed is refused). "neutral": the body model's neutral pose.
   std::string start = "auto";
+  // Loss detection, for a body the tracker can find by itself (AcquiringOptions): lost when the
+  // pose's silhouette fit stays under `lost_below` times its recent level for `lost_after` frames;
+  // the subject is then found again. 0: never.
+  double lost_below = 0;
+  int lost_after = 5;
 
   // The defaults when the tracked body is a person (body_model: builtin:human, a model file with
   // `kind: person`, or a scene_motion):

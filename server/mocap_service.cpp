@@ -150,6 +150,7 @@ grpc::ServerUnaryReactor* MocapServiceImpl::GetStatus(grpc::CallbackServerContex
   response->set_tracking(status.tracking);
   response->set_search_failure(status.search_failure);
   response->set_acquisitions(status.acquisitions);
+  response->set_losses(status.losses);
   auto& settings = *response->mutable_tracker_settings();
   for (const auto& [key, value] : config_.tracker.keyValues()) settings[key] = value;
   settings["threads"] = std::to_string(config_.tracker.threads);

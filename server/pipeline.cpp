@@ -2,6 +2,7 @@
 #include "server/pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <set>
 #include <stdexcept>
@@ -94,8 +95,12 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   // A body that can be placed is tracked through an acquiring filter, so it can be found again
   // on request; from a known pose that filter is the plain one.
   if (canAcquire(model_)) {
+    AcquiringOptions acquiring_options;
+    acquiring_options.lost_below = config.tracker.lost_below;
+    acquiring_options.lost_after = config.tracker.lost_after;
     auto acquiring = std::make_unique<AcquiringFilter>(model_, rig_, model_.neutralPose(),
-                                                       options.likelihood, makeTrackerFilter);
+                                                       options.likelihood, makeTrackerFilter,
+                                                       acquiring_options);
     acquiring_ = acquiring.get();
     filter_ = std::move(acquiring);
   } else {
@@ -483,6 +488,7 @@ void Pipeline::trackerLoop() {
     const FrameEstimate estimate = filter_->step(masks->masks);
     if (acquiring_) {
       acquisitions_ = static_cast<uint64_t>(acquiring_->acquisitions());
+      losses_ = static_cast<uint64_t>(acquiring_->losses());
       std::lock_guard lock(search_mutex_);
       search_failure_ = acquiring_->lastFailure();
     }
@@ -499,6 +505,7 @@ void Pipeline::trackerLoop() {
     pose->dofs = estimate.q;
     pose->score = estimate.best_log_weight;
     pose->spread = estimate.spread;
+    if (!std::isnan(estimate.silhouette_fit)) pose->silhouette_fit = estimate.silhouette_fit;
     if (reference_pose_) {
       forwardKinematics(model_, reference_kinematics_, reference_pose_(masks->sequence));
       const std::vector<Eigen::Vector3d> truth = pointPositions(model_, reference_kinematics_);
@@ -646,6 +653,7 @@ PipelineStatus Pipeline::status() const {
   status.evaluations_per_frame = evaluations_per_frame_;
   status.tracking = tracking_;
   status.acquisitions = acquisitions_;
+  status.losses = losses_;
   {
     std::lock_guard lock(search_mutex_);
     status.search_failure = search_failure_;

@@ -98,6 +98,7 @@ struct PipelineStatus {
   bool tracking = true;
   std::string search_failure;
   uint64_t acquisitions = 0;  // times the tracker found the subject by itself
+  uint64_t losses = 0;        // times it declared itself lost (tracker.lost_below)
   LatencySummary latency;
   RecordingStatus recording;
   // Saved backgrounds refused or ignored at start-up, one line each naming the file (also logged).
@@ -244,6 +245,7 @@ class Pipeline {
   std::atomic<bool> reacquire_requested_{false};
   std::atomic<bool> tracking_{true};
   std::atomic<uint64_t> acquisitions_{0};
+  std::atomic<uint64_t> losses_{0};
   mutable std::mutex search_mutex_;
   std::string search_failure_;
 

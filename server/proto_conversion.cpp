@@ -41,6 +41,7 @@ void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int
   out.set_score(pose.score);
   out.set_spread(pose.spread);
   if (pose.reference_error_mm) out.set_reference_error_mm(*pose.reference_error_mm);
+  if (pose.silhouette_fit) out.set_silhouette_fit(*pose.silhouette_fit);
   out.set_missed_before(missed_before);
 }
 

@@ -248,35 +248,57 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
   return distinct;
 }
 
+double silhouetteFit(const PixelCounts& counts, const std::vector<SilhouetteMask>& masks) {
+  long silhouette = 0;
+  for (const SilhouetteMask& mask : masks) silhouette += mask.total();
+  if (silhouette == 0) return -1;
+  const double fit = static_cast<double>(counts.matched - counts.outside) /
+                     static_cast<double>(std::max(silhouette, 1L));
+  return std::max(fit, -1.0);
+}
+
 AcquiringFilter::AcquiringFilter(const BodyModel& model, const Rig& rig, Eigen::VectorXd stance,
                                  const LikelihoodParams& likelihood, FilterFactory make_filter,
-                                 int trial_frames, const AcquireOptions& options)
+                                 const AcquiringOptions& options)
     : model_(model),
       rig_(rig),
       stance_(std::move(stance)),
       likelihood_(likelihood),
       make_filter_(std::move(make_filter)),
-      trial_frames_(trial_frames),
       options_(options),
       scorer_(model, rig, likelihood.points_per_circle, 1) {
   if (!canAcquire(model)) throw std::invalid_argument("acquisition: " + whyCannotAcquire(model));
-  if (trial_frames < 1) throw std::invalid_argument("acquisition: trial frames must be >= 1");
+  if (options.trial_frames < 1)
+    throw std::invalid_argument("acquisition: trial frames must be >= 1");
+  if (!(options.lost_below >= 0 && options.lost_below < 1))
+    throw std::invalid_argument("acquisition: the lost fit ratio must be in [0, 1)");
+  if (options.lost_after < 1)
+    throw std::invalid_argument("acquisition: frames before the tracker is lost must be >= 1");
 }
 
 std::string AcquiringFilter::name() const {
   return hypotheses_.empty() ? "acquiring" : hypotheses_.front().filter->name();
 }
 
+AcquiringFilter::Hypothesis AcquiringFilter::newHypothesis(const Eigen::VectorXd& q0) {
+  Hypothesis h{make_filter_(), 0};
+  h.filter->setYield(yield_);
+  h.filter->reset(q0);
+  return h;
+}
+
 void AcquiringFilter::reset(const Eigen::VectorXd& q0) {
   hypotheses_.clear();
-  hypotheses_.push_back({make_filter_(), 0});
-  hypotheses_.front().filter->setYield(yield_);
-  hypotheses_.front().filter->reset(q0);
+  hypotheses_.push_back(newHypothesis(q0));
+  searching_ = false;
   trial_frames_left_ = 0;
+  recent_fits_.clear();
+  low_fit_frames_ = 0;
 }
 
 void AcquiringFilter::reacquire() {
   hypotheses_.clear();
+  searching_ = true;
   trial_frames_left_ = 0;
 }
 
@@ -287,9 +309,9 @@ void AcquiringFilter::setYield(std::function<bool()> newer_frame_waiting) {
 
 FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   long acquisition_evaluations = 0;
-  if (hypotheses_.empty()) {
+  if (searching_) {
     const std::vector<Acquisition> found =
-        acquireSubject(model_, rig_, masks, stance_, likelihood_, options_, &last_failure_);
+        acquireSubject(model_, rig_, masks, stance_, likelihood_, options_.search, &last_failure_);
     if (found.empty()) {
       FrameEstimate none;
       none.q = stance_;
@@ -299,42 +321,70 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
     last_failure_.clear();
     ++acquisitions_;
     acquisition_evaluations = found.front().evaluations;
-    for (const Acquisition& a : found) {
-      hypotheses_.push_back({make_filter_(), 0});
-      hypotheses_.back().filter->setYield(yield_);
-      hypotheses_.back().filter->reset(a.q);
-    }
-    trial_frames_left_ = hypotheses_.size() > 1 ? trial_frames_ : 0;
+    // A lost filter, if any, stays among the hypotheses (first, so it wins ties).
+    for (Hypothesis& h : hypotheses_) h.score = 0;
+    for (const Acquisition& a : found) hypotheses_.push_back(newHypothesis(a.q));
+    searching_ = false;
+    trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
+    recent_fits_.clear();
+    low_fit_frames_ = 0;
   }
-  if (trial_frames_left_ == 0) return hypotheses_.front().filter->step(masks);
 
   // Each hypothesis tracks the frame and is scored on it; the one ahead so far is the estimate.
+  // Once one is left, the scoring is only the fit's.
   FrameEstimate ahead;
+  PixelCounts ahead_counts;
   double best = -INFINITY;
   long evaluations = acquisition_evaluations, renders = 0;
   bool cut_short = false;
   for (Hypothesis& h : hypotheses_) {
     FrameEstimate e = h.filter->step(masks);
-    h.score += logLikelihood(likelihood_, scorer_.evaluate(e.q, masks, 0));
+    const PixelCounts counts = scorer_.evaluate(e.q, masks, 0);
+    h.score += logLikelihood(likelihood_, counts);
     evaluations += e.evaluations + 1;
     renders += e.segment_renders + scorer_.drawnSegments();
     cut_short = cut_short || e.cut_short;
     if (h.score > best) {
       best = h.score;
       ahead = std::move(e);
+      ahead_counts = counts;
     }
   }
   ahead.evaluations = evaluations;
   ahead.segment_renders = renders;
   ahead.cut_short = cut_short;
-  if (--trial_frames_left_ == 0) {
+  ahead.silhouette_fit = silhouetteFit(ahead_counts, masks);
+  // Lost (in a trial too): this estimate is still given, and the next step acquires again with
+  // the filter ahead kept.
+  const bool lost = lostAfter(ahead.silhouette_fit);
+  if ((trial_frames_left_ > 0 && --trial_frames_left_ == 0) || lost) {
     auto winner = std::max_element(hypotheses_.begin(), hypotheses_.end(),
                                    [](const Hypothesis& a, const Hypothesis& b) { return a.score < b.score; });
     Hypothesis kept = std::move(*winner);
     hypotheses_.clear();
     hypotheses_.push_back(std::move(kept));
+    trial_frames_left_ = 0;
+  }
+  if (lost) {
+    ++losses_;
+    searching_ = true;
   }
   return ahead;
+}
+
+bool AcquiringFilter::lostAfter(double fit) {
+  constexpr std::size_t kWindow = 50, kWarmUp = 25;
+  bool low = fit <= 0;  // explains no more silhouette than it draws off it: nothing is tracked
+  if (!low && options_.lost_below > 0 && recent_fits_.size() >= kWarmUp) {
+    std::vector<double> sorted = recent_fits_;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    low = fit < options_.lost_below * sorted[sorted.size() / 2];
+  }
+  if (low) return ++low_fit_frames_ >= options_.lost_after;
+  low_fit_frames_ = 0;
+  recent_fits_.push_back(fit);
+  if (recent_fits_.size() > kWindow) recent_fits_.erase(recent_fits_.begin());
+  return false;
 }
 
 }  // namespace mocap

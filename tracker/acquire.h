@@ -53,30 +53,56 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
                                           const AcquireOptions& options = {},
                                           std::string* why_not = nullptr);
 
+// How well a pose explains the silhouettes, comparable across frames, cameras and sessions:
+// (silhouette pixels covered - footprint pixels off the silhouette) / silhouette pixels, all
+// cameras together, from the full-body counts. 1 is a perfect match; the true pose of clean
+// synthetic silhouettes scores about 0.97. Floored at -1, which is also the fit when no camera
+// sees anything.
+double silhouetteFit(const PixelCounts& counts, const std::vector<SilhouetteMask>& masks);
+
+struct AcquiringOptions {
+  // Frames each hypothesis is tracked before the best is kept (a standing body's silhouettes
+  // hardly tell which way it faces; a moving one's soon do).
+  int trial_frames = 10;
+  // The tracker declares itself lost, and acquires the subject again, when for `lost_after`
+  // frames in a row the estimate's silhouetteFit is 0 or less (it explains nothing: the subject
+  // left the view, or the track did), or, if `lost_below` is not 0, under `lost_below` times its
+  // recent level. That level is the median fit of the last 50 frames that were not low, learnt
+  // anew for 25 frames from every acquisition: relative, because what a good fit is depends on
+  // the silhouettes (about 0.97 clean and synthetic, 0.70 with shadows and holes).
+  double lost_below = 0;
+  int lost_after = 5;
+  AcquireOptions search;
+};
+
 // A filter that finds the subject itself. Its first step (and the first after reacquire()) calls
 // acquireSubject on the frame; each hypothesis is then tracked by its own filter for
-// `trial_frames` frames (a standing body's silhouettes hardly tell which way it faces; a moving
-// one's soon do), and the one whose estimates scored best in total is kept. Meanwhile each step
-// gives the estimate of the hypothesis ahead so far, and its evaluations count every
+// `trial_frames` frames, and the one whose estimates scored best in total is kept. Meanwhile each
+// step gives the estimate of the hypothesis ahead so far, and its evaluations count every
 // hypothesis's. A frame in which no subject is found gives found = false, and the next one tries
-// again. reset(q0) starts from a known pose instead, with no acquisition.
+// again. reset(q0) starts from a known pose instead, with no acquisition. Every estimate carries
+// its silhouetteFit (one more full-body evaluation, counted); once the tracker is lost, the
+// filter it was tracking with stays one of the hypotheses of the acquisition that follows, so a
+// false alarm costs evaluations, not the track.
 class AcquiringFilter final : public PoseFilter {
  public:
   using FilterFactory = std::function<std::unique_ptr<PoseFilter>()>;
   // The model and rig are borrowed. `stance` is the pose the subject is assumed to stand in.
   AcquiringFilter(const BodyModel& model, const Rig& rig, Eigen::VectorXd stance,
                   const LikelihoodParams& likelihood, FilterFactory make_filter,
-                  int trial_frames = 10, const AcquireOptions& options = {});
+                  const AcquiringOptions& options = {});
 
   std::string name() const override;
   void reset(const Eigen::VectorXd& q0) override;
   FrameEstimate step(const std::vector<SilhouetteMask>& masks) override;
   void setYield(std::function<bool()> newer_frame_waiting) override;
 
-  // The next step finds the subject again, whatever is being tracked.
+  // The next step finds the subject again, forgetting what is being tracked.
   void reacquire();
-  // Acquisitions that found a subject so far; why the last attempt found none ("" if it did).
+  // Acquisitions that found a subject so far; times the tracker declared itself lost; why the
+  // last attempt found none ("" if it did).
   int acquisitions() const { return acquisitions_; }
+  int losses() const { return losses_; }
   const std::string& lastFailure() const { return last_failure_; }
 
  private:
@@ -85,18 +111,25 @@ class AcquiringFilter final : public PoseFilter {
     double score = 0;  // the sum of its estimates' log-likelihoods
   };
 
+  Hypothesis newHypothesis(const Eigen::VectorXd& q0);
+  // Whether the tracker is lost after an estimate of this fit (options_.lost_below).
+  bool lostAfter(double fit);
+
   const BodyModel& model_;
   const Rig& rig_;
   Eigen::VectorXd stance_;
   LikelihoodParams likelihood_;
   FilterFactory make_filter_;
-  int trial_frames_;
-  AcquireOptions options_;
+  AcquiringOptions options_;
   FullBodyEvaluator scorer_;
   std::function<bool()> yield_;
   std::vector<Hypothesis> hypotheses_;  // one once decided; empty until a subject is found
+  bool searching_ = true;      // the next step acquires (hypotheses_ holds the lost filter, if any)
   int trial_frames_left_ = 0;
+  std::vector<double> recent_fits_;  // the fits the recent level is the median of, oldest first
+  int low_fit_frames_ = 0;           // consecutive estimates under it
   int acquisitions_ = 0;
+  int losses_ = 0;
   std::string last_failure_;
 };
 

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -106,6 +107,9 @@ struct FrameEstimate {
   // False when the filter has no pose to give: an acquiring filter that found no subject in the
   // frame (q is then meaningless). Every filter given a starting pose always has one.
   bool found = true;
+  // silhouetteFit (tracker/acquire.h) of q, when the filter measured it (an acquiring filter
+  // does); NaN otherwise.
+  double silhouette_fit = std::numeric_limits<double>::quiet_NaN();
 };
 
 class PoseFilter {

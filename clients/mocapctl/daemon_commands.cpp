@@ -119,6 +119,8 @@ int runStream(int argc, char** argv) {
                     static_cast<unsigned long long>(pose.frame_sequence()), latency_ms,
                     pose.spread(), static_cast<unsigned long long>(pose.missed_before()));
       std::cout << text;
+      if (pose.has_silhouette_fit())
+        std::cout << "  fit " << std::fixed << std::setprecision(3) << pose.silhouette_fit();
       if (pose.has_reference_error_mm())
         std::cout << "  error vs truth " << std::fixed << std::setprecision(1)
                   << pose.reference_error_mm() << " mm";
@@ -144,6 +146,7 @@ int runStream(int argc, char** argv) {
     line["score"] = pose.score();
     line["spread"] = pose.spread();
     line["missed_before"] = pose.missed_before();
+    if (pose.has_silhouette_fit()) line["silhouette_fit"] = pose.silhouette_fit();
     if (pose.has_reference_error_mm()) line["reference_error_mm"] = pose.reference_error_mm();
     std::cout << line.dump() << "\n" << std::flush;
     if (count > 0 && ++received >= count) {

@@ -94,7 +94,7 @@ class MocapClient:
 
 
 def pose_to_dict(pose):
-    return {
+    out = {
         "frame": pose.frame_sequence,
         "capture_monotonic_ns": pose.capture_monotonic_ns,
         "capture_wall_ns": pose.capture_wall_ns,
@@ -105,6 +105,10 @@ def pose_to_dict(pose):
         "spread": pose.spread,
         "missed_before": pose.missed_before,
     }
+    for optional in ("silhouette_fit", "reference_error_mm"):
+        if pose.HasField(optional):
+            out[optional] = getattr(pose, optional)
+    return out
 
 
 def main():

@@ -234,6 +234,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {dofs: arms}\n", "tracker.dofs: expected all or gait, got 'arms'"},
       {cameras + "tracker: {start: somewhere}\n",
        "tracker.start: expected auto, acquire or neutral, got 'somewhere'"},
+      {cameras + "tracker: {lost_below: 1}\n", "tracker.lost_below: must be between 0 and 0.99"},
+      {cameras + "tracker: {lost_after: 0}\n", "tracker.lost_after: must be between 1 and"},
       {cameras + "listen: nowhere\n", "test.yaml:3: listen:"},
       {cameras + "trackr: {}\n", "trackr: unknown key"},
       {"cameras:\n  - {driver: nosuch}\n", "cameras[0].driver: no driver 'nosuch'"},

@@ -363,11 +363,19 @@ TEST_F(EndToEndTest, FindsAndTracksAPersonItIsNotToldTheStartOf) {
   auto stub = test::connect(server->port());
   grpc::ClientContext stream_context;
   auto reader = stub->StreamPoses(&stream_context, v1::StreamPosesRequest());
-  std::vector<double> errors;
+  std::vector<double> errors, fits;
   v1::Pose pose;
-  while (errors.size() < 50 && reader->Read(&pose)) errors.push_back(pose.reference_error_mm());
+  while (errors.size() < 50 && reader->Read(&pose)) {
+    errors.push_back(pose.reference_error_mm());
+    if (pose.has_silhouette_fit()) fits.push_back(pose.silhouette_fit());
+  }
   stream_context.TryCancel();
   ASSERT_EQ(errors.size(), 50u);
+  // Every pose says how well it explains the silhouettes; tracked, the fake scene's are well
+  // explained (its true poses score about 0.97).
+  ASSERT_EQ(fits.size(), 50u);
+  std::nth_element(fits.begin() + 25, fits.begin() + 37, fits.end());
+  EXPECT_GT(fits[37], 0.85);
   // The neutral stance at the origin, where it would start otherwise, is metres off. Found, the
   // person is tracked: in the experiment from this walk's first frame, under 50 mm from the 4th.
   std::vector<double> later(errors.begin() + 25, errors.end());
@@ -378,8 +386,12 @@ TEST_F(EndToEndTest, FindsAndTracksAPersonItIsNotToldTheStartOf) {
   ASSERT_TRUE(stub->GetStatus(&status_context, {}, &status).ok());
   EXPECT_TRUE(status.tracking());
   EXPECT_EQ(status.acquisitions(), 1u);
+  EXPECT_EQ(status.losses(), 0u);
   EXPECT_EQ(status.search_failure(), "");
   EXPECT_EQ(status.tracker_settings().at("start"), "acquire");
+  const std::string python_poses =
+      python("stream --count 1 --server 127.0.0.1:" + std::to_string(server->port()));
+  EXPECT_THAT(python_poses, ::testing::HasSubstr("\"silhouette_fit\": 0."));
 }
 
 // A client that sees the poses have gone wrong asks the tracker to find the person again; the
@@ -578,7 +590,7 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   const auto poses = replay(root / "session", &status);
   ASSERT_FALSE(poses.empty());
   for (const auto& [sequence, dofs] : poses) ASSERT_EQ(dofs.size(), 31u) << "frame " << sequence;
-  EXPECT_EQ(status.evaluations_per_frame, 600);
+  EXPECT_EQ(status.evaluations_per_frame, 600 + 1);  // and the fit of the estimate
   fs::remove_all(root);
 }
 

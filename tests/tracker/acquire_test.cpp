@@ -104,8 +104,97 @@ TEST(Acquire, TheAcquiringFilterTracksTheBodyFromWhereItFoundIt) {
   // While the hypotheses are tried, every one is tracked and counted.
   EXPECT_GT(e.evaluations, 2 * 2000);
   for (int f = 1; f < 15; ++f) e = filter.step(masks);
-  EXPECT_EQ(e.evaluations, 2000);  // one hypothesis left
+  EXPECT_EQ(e.evaluations, 2000 + 1);  // one hypothesis left, and its fit
   EXPECT_LT(meanError(e.q), 0.05);  // within 50 mm on average over the joints
+}
+
+TEST(Acquire, TheSilhouetteFitIsNearOneAtTheTruthAndFallsAwayFromIt) {
+  StrideScene scene;
+  const auto masks = silhouettes(scene.model, scene.rig, scene.truth);
+  FullBodyEvaluator scorer(scene.model, scene.rig, LikelihoodParams{}.points_per_circle, 1);
+  EXPECT_GT(silhouetteFit(scorer.evaluate(scene.truth, masks, 0), masks), 0.9);
+  Eigen::VectorXd off = scene.truth;
+  off[scene.model.dofIndex("root_tx")] += 0.3;
+  EXPECT_LT(silhouetteFit(scorer.evaluate(off, masks, 0), masks), 0.6);
+  const std::vector<SilhouetteMask> empty(2, SilhouetteMask(cv::Mat::zeros(290, 390, CV_8UC1)));
+  EXPECT_EQ(silhouetteFit(scorer.evaluate(scene.truth, empty, 0), empty), -1.0);
+}
+
+// The subject walks out of view and comes back elsewhere: by default, a fit of 0 or less (the pose
+// explains nothing) for lost_after frames is a loss.
+TEST(Acquire, ALostTrackerSaysSoAndFindsTheSubjectAgain) {
+  StrideScene scene(4);
+  const BodyModel& m = scene.model;
+  const auto masks = silhouettes(m, scene.rig, scene.truth);
+  Eigen::VectorXd elsewhere = scene.truth;
+  elsewhere[m.dofIndex("root_tx")] -= 1.2;
+  elsewhere[m.dofIndex("root_ty")] += 0.8;
+  const auto back = silhouettes(m, scene.rig, elsewhere);
+  const std::vector<SilhouetteMask> empty(4, SilhouetteMask(cv::Mat::zeros(290, 390, CV_8UC1)));
+  WorkerPool pool(1);
+  FilterOptions options = humanFilterDefaults();
+  options.evaluations_per_frame = 2000;
+  AcquiringFilter filter(m, scene.rig, m.neutralPose(), options.likelihood,
+                         [&] { return makeFilter("factored", m, scene.rig, options, pool); });
+  filter.reset(scene.truth);
+  FrameEstimate e = filter.step(masks);
+  EXPECT_GT(e.silhouette_fit, 0.9);
+  for (int f = 0; f < 4; ++f) {
+    e = filter.step(empty);
+    EXPECT_TRUE(e.found);  // not lost yet
+    EXPECT_EQ(e.silhouette_fit, -1.0);
+  }
+  EXPECT_EQ(filter.losses(), 0);
+  e = filter.step(empty);
+  EXPECT_EQ(filter.losses(), 1);
+  EXPECT_FALSE(filter.step(empty).found);
+  EXPECT_THAT(filter.lastFailure(), HasSubstr("no subject"));
+  for (int f = 0; f < 15; ++f) e = filter.step(back);
+  EXPECT_TRUE(e.found);
+  EXPECT_EQ(filter.acquisitions(), 1);
+  EXPECT_EQ(filter.losses(), 1);
+  KinematicsData estimated(m), truth(m);
+  forwardKinematics(m, estimated, e.q);
+  forwardKinematics(m, truth, elsewhere);
+  const auto points = pointPositions(m, estimated), true_points = pointPositions(m, truth);
+  double sum = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) sum += (points[i] - true_points[i]).norm();
+  EXPECT_LT(sum / static_cast<double>(points.size()), 0.05);  // metres, mean over the joints
+}
+
+// Something the pose does not explain (here a large blob beside the body) pulls the fit far under
+// its recent level: a loss when lost_below asks for one, not otherwise.
+TEST(Acquire, AFitFarUnderItsRecentLevelIsALossOnlyWhenAsked) {
+  StrideScene scene;
+  const BodyModel& m = scene.model;
+  const auto masks = silhouettes(m, scene.rig, scene.truth);
+  std::vector<SilhouetteMask> blotted;
+  for (cv::Mat image : SceneRenderer(m, scene.rig).renderSilhouettes(scene.truth)) {
+    image(cv::Rect(0, 0, 120, 200)).setTo(255);
+    blotted.emplace_back(image);
+  }
+  WorkerPool pool(1);
+  FilterOptions options = humanFilterDefaults();
+  options.evaluations_per_frame = 400;
+  auto lossesAfter = [&](double lost_below) {
+    AcquiringOptions acquiring;
+    acquiring.lost_below = lost_below;
+    AcquiringFilter filter(m, scene.rig, m.neutralPose(), options.likelihood,
+                           [&] { return makeFilter("factored", m, scene.rig, options, pool); },
+                           acquiring);
+    filter.reset(scene.truth);
+    for (int f = 0; f < 25; ++f) filter.step(masks);  // the recent level is learnt
+    for (int f = 0; f < 4; ++f) {
+      const double fit = filter.step(blotted).silhouette_fit;
+      EXPECT_GT(fit, 0.0);
+      EXPECT_LT(fit, 0.8);
+    }
+    EXPECT_EQ(filter.losses(), 0);
+    filter.step(blotted);
+    return filter.losses();
+  };
+  EXPECT_EQ(lossesAfter(0.9), 1);
+  EXPECT_EQ(lossesAfter(0), 0);
 }
 
 TEST(Acquire, NoSubjectInViewIsToldWithThePixelsEachCameraSees) {

@@ -199,16 +199,23 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   // The model at a rate 1/k times its own has k times its speed limits per frame.
   const BodyModel tracked = atFrameRate(model, model.frame_rate / config.speed_scale);
   std::unique_ptr<PoseFilter> filter;
-  if (config.start_offset == "acquire") {
-    // No true first pose: the filter finds the body in the first frames' silhouettes, standing in
-    // the neutral stance, as mocapd starts on real cameras.
-    filter = std::make_unique<AcquiringFilter>(
-        tracked, rig, tracked.neutralPose(), options.likelihood,
-        [&] { return makeFilter(config.method, tracked, rig, options, pool); });
+  AcquiringFilter* acquiring = nullptr;
+  const auto makeTrackerFilter = [&] { return makeFilter(config.method, tracked, rig, options, pool); };
+  if (config.start_offset == "acquire" || config.lost_below) {
+    // The filter finds the body itself, in the neutral stance, as mocapd does on real cameras:
+    // at the start when there is no true first pose, and again when it declares itself lost.
+    AcquiringOptions acquiring_options;
+    acquiring_options.lost_below = config.lost_below.value_or(0);
+    acquiring_options.lost_after = config.lost_after;
+    auto owned = std::make_unique<AcquiringFilter>(tracked, rig, tracked.neutralPose(),
+                                                   options.likelihood, makeTrackerFilter,
+                                                   acquiring_options);
+    acquiring = owned.get();
+    filter = std::move(owned);
   } else {
-    filter = makeFilter(config.method, tracked, rig, options, pool);
-    filter->reset(misplaced(model, truth[0], config.start_offset));
+    filter = makeTrackerFilter();
   }
+  if (config.start_offset != "acquire") filter->reset(misplaced(model, truth[0], config.start_offset));
 
   SceneRenderer renderer(model, rig);
   const int missed_limb = model.segmentIndex("l_forearm");
@@ -232,6 +239,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   const int left_arm = limbNamed("left_arm"), right_arm = limbNamed("right_arm");
   const auto latestError = [&](int l) { return l >= 0 ? limb_error[l].back() : 0.0; };
   long evaluations = 0, renders = 0;
+  int frames_without_pose = 0;  // an acquiring filter that found no subject: its q is the stance
   double tracking_seconds = 0;
   // Per-frame trace: tells a search failure (the estimate scores below the truth) from an
   // ambiguity of the silhouettes (it scores as well or better while far off).
@@ -242,7 +250,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     if (!trace) throw std::runtime_error("--trace: cannot write '" + config.trace_path + "'");
     trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,heading_error_deg";
     for (const Limb& limb : limbs) trace << ',' << limb.name << "_mm";
-    trace << ",legs_swapped_mm\n";
+    trace << ",legs_swapped_mm,silhouette_pixels,estimate_fit,found\n";
     scorer =
         std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
   }
@@ -264,8 +272,10 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     if (realistic && missed_limb >= 0 && f % 50 >= 20 && f % 50 < 25) renderer.hideSegment(0, missed_limb);
     renderer.renderSilhouettes(truth[f], images);
     renderer.clearHidden();
+    const bool out_of_view = f >= config.dropout_at && f < config.dropout_at + config.dropout_frames;
     for (std::size_t c = 0; c < rig.size(); ++c) {
       if (realistic) corruptSilhouette(images[c], config.seed, f, static_cast<int>(c));
+      if (out_of_view) images[c].setTo(0);
       masks[c] = SilhouetteMask(images[c]);
     }
     if (config.reset_every > 0 && f > 0 && f % config.reset_every == 0) filter->reset(truth[f - 1]);
@@ -274,6 +284,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     tracking_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     evaluations += estimate.evaluations;
     renders += estimate.segment_renders;
+    frames_without_pose += !estimate.found;
     forwardKinematics(model, kin, truth[f]);
     const auto true_points = pointPositions(model, kin);
     forwardKinematics(model, kin, estimate.q);
@@ -307,13 +318,16 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
                                    heading_error, legs_swapped)];
     if (scorer) {
       const double truth_score = logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0));
-      const double estimate_score =
-          logLikelihood(options.likelihood, scorer->evaluate(estimate.q, masks, 0));
+      const PixelCounts estimate_counts = scorer->evaluate(estimate.q, masks, 0);
+      const double estimate_score = logLikelihood(options.likelihood, estimate_counts);
       lost_truth_ahead += lost && truth_score > estimate_score + 20;
       trace << f << ',' << frame_error.back() << ',' << truth_score << ',' << estimate_score << ','
             << heading_error;
       for (const auto& error : limb_error) trace << ',' << error.back();
-      trace << ',' << legs_swapped << '\n';
+      long silhouette_pixels = 0;
+      for (const SilhouetteMask& mask : masks) silhouette_pixels += mask.total();
+      trace << ',' << legs_swapped << ',' << silhouette_pixels << ','
+            << silhouetteFit(estimate_counts, masks) << ',' << estimate.found << '\n';
     }
   }
 
@@ -391,6 +405,17 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   // With --trace, which scores the truth as well: lost frames that are a failure of the search
   // (the truth scores higher) rather than an ambiguity of the silhouettes.
   if (scorer) out["lost_frames_truth_ahead"] = lost_truth_ahead;
+  if (acquiring) {
+    out["acquisitions"] = acquiring->acquisitions();
+    out["frames_without_pose"] = frames_without_pose;
+    out["lost_below"] = config.lost_below.value_or(0);
+    out["lost_after"] = config.lost_after;
+    out["losses"] = acquiring->losses();
+  }
+  if (config.dropout_frames > 0) {
+    out["dropout_at"] = config.dropout_at;
+    out["dropout_frames"] = config.dropout_frames;
+  }
   if (config.start_offset != "none") {
     out["start_offset"] = config.start_offset;
     out["recovery_frames"] = recovery >= 0 ? nlohmann::json(recovery) : nlohmann::json();
@@ -418,6 +443,10 @@ int runHumanCommand(int argc, char** argv) {
   config.reset_every = static_cast<int>(args.integer("reset-every", 0, 0, 1'000'000));
   config.speed_scale = args.real("speed-scale", 1.0, 0.01, 100.0);
   config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
+  if (args.has("lost-below")) config.lost_below = args.real("lost-below", 0.0, 0.0, 0.99);
+  config.lost_after = static_cast<int>(args.integer("lost-after", config.lost_after, 1, 1'000'000));
+  config.dropout_at = static_cast<int>(args.integer("dropout-at", 0, 0, 1'000'000));
+  config.dropout_frames = static_cast<int>(args.integer("dropout-frames", 0, 0, 1'000'000));
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");

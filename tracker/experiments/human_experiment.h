@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,15 @@ struct HumanExperimentConfig {
   // scored) with this probability, from its own seeded stream, as mocapd drops the frame sets
   // that arrive while a step runs. The tracker's motion model still assumes one frame per step.
   double skip_rate = 0;
+  // Loss detection (AcquiringOptions, as mocapd has it): the body is acquired again once the
+  // estimate's silhouette fit has been 0 or less, or under lost_below times its recent level
+  // (lost_below 0: only the former), for lost_after frames. Unset: no detection (the paper).
+  std::optional<double> lost_below;
+  int lost_after = 5;
+  // The subject out of view: every camera's silhouette empty for dropout_frames frames from
+  // frame dropout_at (the truth still moves and is still scored).
+  int dropout_at = 0;
+  int dropout_frames = 0;
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none
