@@ -98,7 +98,7 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
     AcquiringOptions acquiring_options;
     acquiring_options.lost_below = config.tracker.lost_below;
     acquiring_options.lost_after = config.tracker.lost_after;
-    auto acquiring = std::make_unique<AcquiringFilter>(model_, rig_, model_.neutralPose(),
+    auto acquiring = std::make_unique<AcquiringFilter>(model_, rig_, acquisitionStances(model_),
                                                        options.likelihood, makeTrackerFilter,
                                                        acquiring_options);
     acquiring_ = acquiring.get();

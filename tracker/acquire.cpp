@@ -87,15 +87,17 @@ std::string whyCannotAcquire(const BodyModel& model) {
 
 std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
                                           const std::vector<SilhouetteMask>& masks,
-                                          const Eigen::VectorXd& stance,
+                                          const std::vector<Eigen::VectorXd>& stances,
                                           const LikelihoodParams& likelihood,
                                           const AcquireOptions& options, std::string* why_not) {
   if (!canAcquire(model)) throw std::invalid_argument("acquisition: " + whyCannotAcquire(model));
   const RootDofs root = findRootDofs(model);
   if (masks.size() != rig.size())
     throw std::invalid_argument("acquisition: expected one silhouette per camera");
-  if (stance.size() != static_cast<long>(model.dofs.size()))
-    throw std::invalid_argument("acquisition: the stance has the wrong number of DOFs");
+  if (stances.empty()) throw std::invalid_argument("acquisition: no stance to try");
+  for (const Eigen::VectorXd& stance : stances)
+    if (stance.size() != static_cast<long>(model.dofs.size()))
+      throw std::invalid_argument("acquisition: a stance has the wrong number of DOFs");
   if (options.headings < 1 || options.searched_headings < 1 || options.search_evaluations < 0)
     throw std::invalid_argument("acquisition: headings and searched headings must be >= 1");
   auto fail = [&](const std::string& why) {
@@ -138,8 +140,8 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
     ++evaluations;
     return logLikelihood(likelihood, evaluator.evaluate(q, masks, 0));
   };
-  // The stance at heading h, moved so its centroid is the triangulated point.
-  auto placed = [&](double heading) {
+  // A stance at heading h, moved so its centroid is the triangulated point.
+  auto placed = [&](const Eigen::VectorXd& stance, double heading) {
     Eigen::VectorXd q = stance;
     q[root.yaw] = wrapInto(heading, model.dofs[root.yaw]);
     forwardKinematics(model, kinematics, q);
@@ -157,13 +159,17 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
   };
   std::vector<Start> scanned;
   for (int h = 0; h < options.headings; ++h) {
-    Eigen::VectorXd q = placed(2 * M_PI * h / options.headings);
-    const double value = score(q);
-    scanned.push_back({std::move(q), value});
+    Start best{{}, -INFINITY};
+    for (const Eigen::VectorXd& stance : stances) {
+      Eigen::VectorXd q = placed(stance, 2 * M_PI * h / options.headings);
+      const double value = score(q);
+      if (value > best.value) best = {std::move(q), value};
+    }
+    scanned.push_back(std::move(best));
   }
   std::stable_sort(scanned.begin(), scanned.end(),
                    [](const Start& a, const Start& b) { return a.value > b.value; });
-  // The best headings at least 90 degrees apart: a standing body's silhouettes are nearly the same
+  // The best headings at least 60 degrees apart: a standing body's silhouettes are nearly the same
   // facing either way, so the one turned round is kept to be told apart by its limbs.
   std::vector<Start> starts;
   for (Start& candidate : scanned) {
@@ -257,12 +263,19 @@ double silhouetteFit(const PixelCounts& counts, const std::vector<SilhouetteMask
   return std::max(fit, -1.0);
 }
 
-AcquiringFilter::AcquiringFilter(const BodyModel& model, const Rig& rig, Eigen::VectorXd stance,
+std::vector<Eigen::VectorXd> acquisitionStances(const BodyModel& model) {
+  std::vector<Eigen::VectorXd> stances = {model.neutralPose()};
+  for (const Stance& stance : model.stances) stances.push_back(model.stancePose(stance));
+  return stances;
+}
+
+AcquiringFilter::AcquiringFilter(const BodyModel& model, const Rig& rig,
+                                 std::vector<Eigen::VectorXd> stances,
                                  const LikelihoodParams& likelihood, FilterFactory make_filter,
                                  const AcquiringOptions& options)
     : model_(model),
       rig_(rig),
-      stance_(std::move(stance)),
+      stances_(std::move(stances)),
       likelihood_(likelihood),
       make_filter_(std::move(make_filter)),
       options_(options),
@@ -311,10 +324,10 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   long acquisition_evaluations = 0;
   if (searching_) {
     const std::vector<Acquisition> found =
-        acquireSubject(model_, rig_, masks, stance_, likelihood_, options_.search, &last_failure_);
+        acquireSubject(model_, rig_, masks, stances_, likelihood_, options_.search, &last_failure_);
     if (found.empty()) {
       FrameEstimate none;
-      none.q = stance_;
+      none.q = stances_.front();
       none.found = false;
       return none;
     }

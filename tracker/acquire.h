@@ -3,9 +3,10 @@
 //
 // The paper starts its tracker at a known pose. A capture volume only knows its silhouettes, so
 // the subject is placed where they meet: the rays through each camera's silhouette centroid are
-// triangulated, the body in an assumed stance (standing, arms down) is put with its centroid
-// there, facing each of several headings, and the best headings (one of them turned round: a
-// standing body looks much the same either way) are searched locally on the full-body likelihood,
+// triangulated, the body in each of a few assumed stances (standing with arms down, and those its
+// model lists: mid-stride, crouching) is put with its centroid there, facing each of several
+// headings, and the best headings, each in its best stance (one of them turned round: a standing
+// body looks much the same either way) are searched locally on the full-body likelihood,
 // first the root's place and heading, then every DOF, and the better fit wins. The filter then
 // tracks from it as it recovers from any misplaced pose (paper §8.3).
 #pragma once
@@ -40,15 +41,19 @@ struct Acquisition {
   int evaluations = 0;                // full-body evaluations spent on all hypotheses
 };
 
-// The subject seen by `masks` (one per camera of `rig`), in `stance` with the root's position and
-// heading replaced, then fitted: one hypothesis per searched heading, best first. Empty, with the
+// The poses acquisition tries the subject in: the neutral pose, then each of the model's stances.
+std::vector<Eigen::VectorXd> acquisitionStances(const BodyModel& model);
+
+// The subject seen by `masks` (one per camera of `rig`), in the best of `stances` (at least one)
+// with the root's position and heading replaced, then fitted: one hypothesis per searched
+// heading, best first. Empty, with the
 // reason in *why_not, when fewer than two cameras see enough silhouette or their rays cannot
 // place it. Throws std::invalid_argument if the model's root has
 // no free translations along X and Y and rotation about Z (the hand: its palm is fixed), or the
 // masks do not match the rig.
 std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
                                           const std::vector<SilhouetteMask>& masks,
-                                          const Eigen::VectorXd& stance,
+                                          const std::vector<Eigen::VectorXd>& stances,
                                           const LikelihoodParams& likelihood,
                                           const AcquireOptions& options = {},
                                           std::string* why_not = nullptr);
@@ -87,8 +92,9 @@ struct AcquiringOptions {
 class AcquiringFilter final : public PoseFilter {
  public:
   using FilterFactory = std::function<std::unique_ptr<PoseFilter>()>;
-  // The model and rig are borrowed. `stance` is the pose the subject is assumed to stand in.
-  AcquiringFilter(const BodyModel& model, const Rig& rig, Eigen::VectorXd stance,
+  // The model and rig are borrowed. `stances`: the poses the subject may be found in
+  // (acquisitionStances).
+  AcquiringFilter(const BodyModel& model, const Rig& rig, std::vector<Eigen::VectorXd> stances,
                   const LikelihoodParams& likelihood, FilterFactory make_filter,
                   const AcquiringOptions& options = {});
 
@@ -117,7 +123,7 @@ class AcquiringFilter final : public PoseFilter {
 
   const BodyModel& model_;
   const Rig& rig_;
-  Eigen::VectorXd stance_;
+  std::vector<Eigen::VectorXd> stances_;
   LikelihoodParams likelihood_;
   FilterFactory make_filter_;
   AcquiringOptions options_;

@@ -145,7 +145,8 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   Parser p(source);
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
   p.onlyKeys(root, "(top)",
-             {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "feet", "segments"});
+             {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "feet", "stances",
+              "segments"});
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
   if (root["kind"]) {
@@ -256,6 +257,29 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
                    ? "needs a parent and a grandparent segment"
                    : "";
       });
+  if (const YAML::Node list = root["stances"]) {
+    if (!list.IsSequence()) p.fail(list, "stances", "expected a list of stances");
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      const std::string path = "stances[" + std::to_string(k) + "]";
+      const YAML::Node node = list[k];
+      if (!node.IsMap()) p.fail(node, path, "expected a map: name and DOF values");
+      Stance stance;
+      stance.name = p.text(p.require(node, "name", path), path + ".name");
+      for (const auto& entry : node) {
+        const std::string key = entry.first.Scalar();
+        if (key == "name") continue;
+        const int d = model.dofIndex(key);
+        if (d < 0) p.fail(entry.first, path + "." + key, "unknown DOF");
+        const Dof& dof = model.dofs[d];
+        const double unit = dof.type == DofType::kRotation ? kDegToRad : 1.0;
+        const double value = p.number(entry.second, path + "." + key) * unit;
+        if (value < dof.min - 1e-12 || value > dof.max + 1e-12)
+          p.fail(entry.second, path + "." + key, "outside the DOF's limits");
+        stance.dofs.emplace_back(d, value);
+      }
+      model.stances.push_back(std::move(stance));
+    }
+  }
   return model;
 }
 
@@ -307,6 +331,18 @@ std::string formatBodyModel(const BodyModel& model) {
     out << YAML::Key << "facing_twists" << YAML::Value << YAML::Flow << model.facing_twists;
   }
   if (!model.feet.empty()) out << YAML::Key << "feet" << YAML::Value << YAML::Flow << model.feet;
+  if (!model.stances.empty()) {
+    out << YAML::Key << "stances" << YAML::Value << YAML::BeginSeq;
+    for (const Stance& stance : model.stances) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << stance.name;
+      for (const auto& [d, value] : stance.dofs) {
+        const double unit = model.dofs[d].type == DofType::kRotation ? 1.0 / kDegToRad : 1.0;
+        out << YAML::Key << model.dofs[d].name << YAML::Value << value * unit;
+      }
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
   out << YAML::Key << "segments" << YAML::Value << YAML::BeginSeq;
   for (std::size_t s = 0; s < model.segments.size(); ++s) {
     const Segment& seg = model.segments[s];
@@ -383,6 +419,12 @@ Eigen::VectorXd BodyModel::neutralPose() const {
   return q;
 }
 
+Eigen::VectorXd BodyModel::stancePose(const Stance& stance) const {
+  Eigen::VectorXd q = neutralPose();
+  for (const auto& [d, value] : stance.dofs) q[d] = value;
+  return q;
+}
+
 bool BodyModel::isStatic(int s) const {
   for (; s >= 0; s = segments[s].parent)
     for (int d : segments[s].dofs)
@@ -400,6 +442,9 @@ BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& f
     if (std::find(free_dofs.begin(), free_dofs.end(), dof.name) != free_dofs.end()) continue;
     dof.min = dof.max = pose[static_cast<long>(d)];
   }
+  // A frozen DOF holds its value in every stance too.
+  for (Stance& stance : out.stances)
+    for (auto& [d, value] : stance.dofs) value = std::clamp(value, out.dofs[d].min, out.dofs[d].max);
   return out;
 }
 

@@ -54,6 +54,14 @@ struct BodyPoint {
   Eigen::Vector3d local = Eigen::Vector3d::Zero();
 };
 
+// A named pose the body is often seen in (a person mid-stride, crouching). The DOFs it does not
+// list hold their neutral value. Tracking a subject it is not given a pose of, the tracker tries
+// the neutral pose and each stance (tracker/acquire.h).
+struct Stance {
+  std::string name;
+  std::vector<std::pair<int, double>> dofs;  // DOF index and value (radians or metres)
+};
+
 class BodyModel {
  public:
   std::string name;
@@ -73,6 +81,7 @@ class BodyModel {
   // `kind: person` in the file: the body is a person's, so a daemon tracking it starts from the
   // tracker settings measured on people (TrackerSettings::forPeople) rather than the hand's.
   bool person = false;
+  std::vector<Stance> stances;  // optional, besides the neutral pose
   // The camera rate (Hz) the DOFs' max_speed values are per frame of: `frame_rate` in the file,
   // 25 (the paper's rate) when absent. atFrameRate rescales a model to another rate.
   double frame_rate = 25;
@@ -82,6 +91,8 @@ class BodyModel {
   int pointIndex(const std::string& point_name) const;      // -1 if absent
   // The DOF vector with every DOF at the nearest in-range value to zero.
   Eigen::VectorXd neutralPose() const;
+  // The neutral pose with the stance's DOFs set.
+  Eigen::VectorXd stancePose(const Stance& stance) const;
   // True if segment `s` never moves (it and all its ancestors have no free DOFs).
   bool isStatic(int s) const;
 };

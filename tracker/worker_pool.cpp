@@ -6,7 +6,9 @@
 namespace mocap {
 namespace {
 
-constexpr int kSpinIterations = 20000;  // roughly 20-50 us
+// A bound on the spin, not a time: 20,000 pauses took 300-370 us on the Xeon VM the benchmarks
+// in docs/ ran on (PAUSE costs about 140 cycles from Skylake on), far longer than on older cores.
+constexpr int kSpinIterations = 20000;
 
 inline void cpuRelax() {
 #if defined(__x86_64__) || defined(__i386__)

@@ -90,7 +90,12 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       // A misspelt optional key is named, not ignored.
       {"name: arm", "name: arm\nkindd: person",
        "bad.yaml:3: (top).kindd: unknown key (known: name, kind, frame_rate, gait_dofs, "
-       "facing_twists, feet, segments)"},
+       "facing_twists, feet, stances, segments)"},
+      {"name: arm", "name: arm\nstances: [{name: up, elbow: 10}]",
+       "bad.yaml:3: stances[0].elbow: unknown DOF"},
+      {"name: arm", "name: arm\nstances: [{name: up, shoulder: 100}]",
+       "bad.yaml:3: stances[0].shoulder: outside the DOF's limits"},
+      {"name: arm", "name: arm\nstances: [{shoulder: 10}]", "stances[0].name: missing"},
       {"name: arm", "name: arm\nfeet: [lower]",
        "bad.yaml:3: feet[0]: 'lower' needs a parent and a grandparent segment"},
       {"name: arm", "name: arm\nfeet: [paw]", "feet[0]: unknown segment 'paw'"},
@@ -129,6 +134,26 @@ TEST(BodyModel, MissingFileIsNamed) {
         }
       },
       std::runtime_error);
+}
+
+TEST(BodyModel, StancesSetTheirDofsInTheFilesUnitsAndTheRestNeutral) {
+  std::string yaml = kTwoSegments;
+  yaml.replace(yaml.find("name: arm"), 9, "name: arm\nstances: [{name: reach, shoulder: 45, slide: 0.05}, {name: tucked, slide: 0.1}]");
+  const BodyModel m = parseBodyModel(yaml, "arm.yaml");
+  ASSERT_EQ(m.stances.size(), 2u);
+  EXPECT_EQ(m.stances[1].name, "tucked");
+  const Eigen::VectorXd reach = m.stancePose(m.stances[0]), tucked = m.stancePose(m.stances[1]);
+  EXPECT_NEAR(reach[0], M_PI / 4, 1e-12);  // degrees in the file
+  EXPECT_DOUBLE_EQ(reach[1], 0.05);        // metres
+  EXPECT_DOUBLE_EQ(tucked[0], 0.0);        // unlisted: neutral
+  // A frozen DOF holds its frozen value in every stance.
+  const BodyModel frozen = freezeAllBut(m, {"slide"}, Eigen::Vector2d(0.2, 0));
+  EXPECT_DOUBLE_EQ(frozen.stancePose(frozen.stances[0])[0], 0.2);
+  // The human is tried mid-stride both ways and crouching.
+  const BodyModel human = builtinHumanModel();
+  ASSERT_EQ(human.stances.size(), 3u);
+  EXPECT_EQ(human.stances[2].name, "crouch");
+  EXPECT_NEAR(human.stancePose(human.stances[2])[human.dofIndex("l_knee_flex")], M_PI / 2, 1e-12);
 }
 
 TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
@@ -183,6 +208,11 @@ void expectSameModel(const BodyModel& a, const BodyModel& b) {
   EXPECT_EQ(a.gait_dofs, b.gait_dofs);
   EXPECT_EQ(a.facing_twists, b.facing_twists);
   EXPECT_EQ(a.feet, b.feet);
+  ASSERT_EQ(a.stances.size(), b.stances.size());
+  for (std::size_t k = 0; k < a.stances.size(); ++k) {
+    EXPECT_EQ(a.stances[k].name, b.stances[k].name);
+    EXPECT_LT((a.stancePose(a.stances[k]) - b.stancePose(b.stances[k])).norm(), kTolerance);
+  }
   ASSERT_EQ(a.segments.size(), b.segments.size());
   for (std::size_t s = 0; s < a.segments.size(); ++s) {
     const Segment &x = a.segments[s], &y = b.segments[s];

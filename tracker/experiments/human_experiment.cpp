@@ -202,12 +202,12 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   AcquiringFilter* acquiring = nullptr;
   const auto makeTrackerFilter = [&] { return makeFilter(config.method, tracked, rig, options, pool); };
   if (config.start_offset == "acquire" || config.lost_below) {
-    // The filter finds the body itself, in the neutral stance, as mocapd does on real cameras:
+    // The filter finds the body itself, in the model's stances, as mocapd does on real cameras:
     // at the start when there is no true first pose, and again when it declares itself lost.
     AcquiringOptions acquiring_options;
     acquiring_options.lost_below = config.lost_below.value_or(0);
     acquiring_options.lost_after = config.lost_after;
-    auto owned = std::make_unique<AcquiringFilter>(tracked, rig, tracked.neutralPose(),
+    auto owned = std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
                                                    options.likelihood, makeTrackerFilter,
                                                    acquiring_options);
     acquiring = owned.get();
@@ -407,6 +407,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (scorer) out["lost_frames_truth_ahead"] = lost_truth_ahead;
   if (acquiring) {
     out["acquisitions"] = acquiring->acquisitions();
+    std::vector<std::string> stances = {"neutral"};
+    for (const Stance& stance : tracked.stances) stances.push_back(stance.name);
+    out["stances"] = stances;
     out["frames_without_pose"] = frames_without_pose;
     out["lost_below"] = config.lost_below.value_or(0);
     out["lost_after"] = config.lost_after;
