@@ -93,7 +93,8 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
     return makeFilter(config_.tracker.method, model_, rig_, options, *pool_);
   };
   // A body that can be placed is tracked through an acquiring filter, so it can be found again
-  // on request; from a known pose that filter is the plain one.
+  // on request or once lost, and each pose carries its silhouette fit; from a known pose that
+  // filter tracks as the plain one.
   if (canAcquire(model_)) {
     AcquiringOptions acquiring_options;
     acquiring_options.lost_below = config.tracker.lost_below;

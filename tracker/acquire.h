@@ -46,9 +46,8 @@ std::vector<Eigen::VectorXd> acquisitionStances(const BodyModel& model);
 
 // The subject seen by `masks` (one per camera of `rig`), in the best of `stances` (at least one)
 // with the root's position and heading replaced, then fitted: one hypothesis per searched
-// heading, best first. Empty, with the
-// reason in *why_not, when fewer than two cameras see enough silhouette or their rays cannot
-// place it. Throws std::invalid_argument if the model's root has
+// heading, best first. Empty, with the reason in *why_not, when fewer than two cameras see enough
+// silhouette or their rays cannot place it. Throws std::invalid_argument if the model's root has
 // no free translations along X and Y and rotation about Z (the hand: its palm is fixed), or the
 // masks do not match the rig.
 std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
@@ -129,7 +128,7 @@ class AcquiringFilter final : public PoseFilter {
   AcquiringOptions options_;
   FullBodyEvaluator scorer_;
   std::function<bool()> yield_;
-  std::vector<Hypothesis> hypotheses_;  // one once decided; empty until a subject is found
+  std::vector<Hypothesis> hypotheses_;  // one once decided, several during a trial
   bool searching_ = true;      // the next step acquires (hypotheses_ holds the lost filter, if any)
   int trial_frames_left_ = 0;
   std::vector<double> recent_fits_;  // the fits the recent level is the median of, oldest first

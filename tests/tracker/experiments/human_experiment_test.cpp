@@ -116,6 +116,29 @@ TEST(HumanExperiment, AcquireFindsTheBodyFromAnyStartFrame) {
   }
 }
 
+// Every camera empty for 5 frames: with loss detection the tracker gives up after lost_after of
+// them, gives no pose while nothing is seen, and finds the subject on return.
+TEST(HumanExperiment, ASubjectOutOfViewIsLostAndFoundAgain) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config;
+  config.motion_path = kWalk;
+  config.frames = 9;
+  config.threads = 1;
+  config.evaluations = 300;
+  config.dropout_at = 2;
+  config.dropout_frames = 5;
+  config.lost_below = 0;
+  config.lost_after = 2;
+  const nlohmann::json out = runHumanExperiment(config);
+  EXPECT_EQ(out["losses"], 1) << out.dump();
+  EXPECT_EQ(out["frames_without_pose"], 3);  // frames 4-6: lost on frame 3
+  EXPECT_EQ(out["acquisitions"], 1);         // on frame 7, back in view
+  config.lost_below.reset();                 // no detection: a pose every frame
+  const nlohmann::json plain = runHumanExperiment(config);
+  EXPECT_FALSE(plain.contains("losses"));
+  EXPECT_FALSE(plain.contains("frames_without_pose"));
+}
+
 TEST(HumanExperiment, BadOptionsAreNamed) {
   HumanExperimentConfig config;
   config.motion_path = kWalk;
