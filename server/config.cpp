@@ -89,7 +89,8 @@ class ConfigParser {
 
   int integer(const YAML::Node& node, const std::string& field, int min, int max) const {
     const double value = number(node, field, min, max);
-    if (value != std::floor(value)) fail(node, field, "expected a whole number, got " + node.Scalar());
+    if (value != std::floor(value))
+      fail(node, field, "expected a whole number, got " + node.Scalar());
     return static_cast<int>(value);
   }
 
@@ -172,10 +173,11 @@ class ConfigParser {
 
   // The keys of a `tracker:` map, over the settings in `t`.
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
-    onlyKeys(tracker, "tracker",
-             {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead",
-              "refine", "refine_hold", "refine_plant", "refine_swap", "refine_restarts",
-              "refine_facing_prior", "dofs", "start", "lost_below", "lost_after"});
+    onlyKeys(
+        tracker, "tracker",
+        {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead", "refine",
+         "refine_hold", "refine_plant", "refine_swap", "refine_swap_margin", "refine_restarts",
+         "refine_facing_prior", "dofs", "start", "lost_below", "lost_after"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -203,7 +205,8 @@ class ConfigParser {
              "expected none, root, subtree or body, got '" + t.lookahead + "'");
     }
     if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
-    if (tracker["refine_hold"]) t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
+    if (tracker["refine_hold"])
+      t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
     if (tracker["refine_plant"])
       t.refine_plant = boolean(tracker["refine_plant"], "tracker.refine_plant");
     if (const YAML::Node swap = tracker["refine_swap"]) {
@@ -216,6 +219,9 @@ class ConfigParser {
              "expected true, false or knees, got '" + swap.Scalar() + "'");
       t.refine_swap = on;
     }
+    if (tracker["refine_swap_margin"])
+      t.refine_swap_margin =
+          number(tracker["refine_swap_margin"], "tracker.refine_swap_margin", 0, 1e7);
     if (tracker["refine_restarts"])
       t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
     if (tracker["refine_facing_prior"])
@@ -260,7 +266,8 @@ class ConfigParser {
              "every camera of the rig must run at the same rate as cameras[0]");
     }
 
-    if (root["calibration"]) config.calibration_file = existingFile(root["calibration"], "calibration");
+    if (root["calibration"])
+      config.calibration_file = existingFile(root["calibration"], "calibration");
     if (root["body_model"]) {
       const std::string model = text(root["body_model"], "body_model");
       config.body_model =
@@ -405,6 +412,7 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.refine_plant = refine_plant;
   options.refine_swap = refine_swap;
   options.refine_swap_knees_only = refine_swap && refine_swap_knees;
+  options.refine_swap_margin = refine_swap_margin;
   options.refine_restart_share = refine_restarts;
   options.refine_facing_prior = refine_facing_prior;
   return options;
@@ -429,7 +437,10 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"refine", exact(refine)},
           {"refine_hold", refine_hold ? "true" : "false"},
           {"refine_plant", refine_plant ? "true" : "false"},
-          {"refine_swap", !refine_swap ? "false" : refine_swap_knees ? "knees" : "true"},
+          {"refine_swap", !refine_swap        ? "false"
+                          : refine_swap_knees ? "knees"
+                                              : "true"},
+          {"refine_swap_margin", exact(refine_swap_margin)},
           {"refine_restarts", exact(refine_restarts)},
           {"refine_facing_prior", exact(refine_facing_prior)},
           {"dofs", dofs},
@@ -438,9 +449,9 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"lost_after", std::to_string(lost_after)}};
 }
 
-TrackerSettings replayTrackerSettings(const ServerConfig& config,
-                                      const std::vector<std::pair<std::string, std::string>>& stored,
-                                      const std::string& source) {
+TrackerSettings replayTrackerSettings(
+    const ServerConfig& config, const std::vector<std::pair<std::string, std::string>>& stored,
+    const std::string& source) {
   const auto asMap = [](const std::vector<std::pair<std::string, std::string>>& keys) {
     YAML::Node map(YAML::NodeType::Map);
     for (const auto& [key, value] : keys) map[key] = value;

@@ -44,6 +44,8 @@ struct TrackerSettings {
   bool refine_plant = false;
   bool refine_swap = false;
   bool refine_swap_knees = false;  // with refine_swap: only the knees exchanged (key value `knees`)
+  // With refine_swap: silhouette pixels the exchanged pose must gain to replace the pose.
+  double refine_swap_margin = FilterOptions().refine_swap_margin;
   double refine_restarts = 0;
   double refine_facing_prior = 0;
   // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the
@@ -101,9 +103,9 @@ struct ServerConfig {
   // Fake scene only: hand the tracker the scene's true silhouettes (the demo measures tracking)
   // instead of extracting them from the rendered images (false: YAML `silhouettes: extracted`).
   bool true_silhouettes = true;
-  std::string tls_cert_file;        // both or neither
+  std::string tls_cert_file;  // both or neither
   std::string tls_key_file;
-  std::string bearer_token;         // empty: no token required
+  std::string bearer_token;  // empty: no token required
   LogLevel log_level = LogLevel::kInfo;
   // Replay a recorded session instead of the configured cameras.
   std::string replay_directory;
@@ -125,8 +127,8 @@ ServerConfig loadConfigFile(const std::string& path);
 // The tracker settings of a replay: the ones the session stored (`stored`, from its manifest,
 // named `source` in errors), with the keys the configuration set itself on top and the
 // configuration's thread count. Throws ConfigError naming the source and the key.
-TrackerSettings replayTrackerSettings(const ServerConfig& config,
-                                      const std::vector<std::pair<std::string, std::string>>& stored,
-                                      const std::string& source);
+TrackerSettings replayTrackerSettings(
+    const ServerConfig& config, const std::vector<std::pair<std::string, std::string>>& stored,
+    const std::string& source);
 
 }  // namespace mocap

@@ -80,10 +80,20 @@ TEST(ConfigTest, RefineSwapKneesExchangesOnlyTheKnees) {
   EXPECT_TRUE(legs.tracker.filterOptions().refine_swap);
   EXPECT_FALSE(legs.tracker.filterOptions().refine_swap_knees_only);
 
+  // The margin the exchanged pose must gain: the filter's unless set, and kept by a session.
+  EXPECT_EQ(knees.tracker.filterOptions().refine_swap_margin, FilterOptions().refine_swap_margin);
+  const ServerConfig strict = parseConfig(
+      cameras + "tracker: {refine_swap: knees, refine_swap_margin: 1234.5}\n", "test.yaml", ".");
+  EXPECT_EQ(strict.tracker.filterOptions().refine_swap_margin, 1234.5);
+
   const ServerConfig plain = parseConfig(cameras, "replay.yaml", ".");
   const TrackerSettings replayed =
       replayTrackerSettings(plain, knees.tracker.keyValues(), "session/manifest.yaml");
   EXPECT_TRUE(replayed.filterOptions().refine_swap_knees_only);
+  EXPECT_EQ(replayTrackerSettings(plain, strict.tracker.keyValues(), "session/manifest.yaml")
+                .filterOptions()
+                .refine_swap_margin,
+            1234.5);
   const ServerConfig off = parseConfig(cameras + "tracker: {refine_swap: false}\n", "r.yaml", ".");
   EXPECT_FALSE(replayTrackerSettings(off, knees.tracker.keyValues(), "session/manifest.yaml")
                    .filterOptions()
@@ -92,7 +102,8 @@ TEST(ConfigTest, RefineSwapKneesExchangesOnlyTheKnees) {
 
 TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
-  const ServerConfig person = parseConfig(cameras + "body_model: builtin:human\n", "test.yaml", ".");
+  const ServerConfig person =
+      parseConfig(cameras + "body_model: builtin:human\n", "test.yaml", ".");
   EXPECT_EQ(person.tracker.evaluations, 2000);
   EXPECT_EQ(person.tracker.inject, "segment");
   EXPECT_EQ(person.tracker.injection, 0.05);
@@ -187,8 +198,9 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_EQ(as_recorded.threads, 1);
 
   // Keys the configuration sets itself win.
-  const ServerConfig tuned = parseConfig(
-      cameras + "tracker: {threads: 2, evaluations: 800, refine_hold: false}\n", "replay.yaml", ".");
+  const ServerConfig tuned =
+      parseConfig(cameras + "tracker: {threads: 2, evaluations: 800, refine_hold: false}\n",
+                  "replay.yaml", ".");
   const TrackerSettings overridden =
       replayTrackerSettings(tuned, recorded.keyValues(), "session/manifest.yaml");
   EXPECT_EQ(overridden.evaluations, 800);
@@ -205,8 +217,9 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
     }
     return std::string();
   };
-  EXPECT_THAT(errorOfStored({{"lookahead", "ahead"}}),
-              HasSubstr("session/manifest.yaml: tracker.lookahead: expected none, root, subtree or body"));
+  EXPECT_THAT(
+      errorOfStored({{"lookahead", "ahead"}}),
+      HasSubstr("session/manifest.yaml: tracker.lookahead: expected none, root, subtree or body"));
   EXPECT_THAT(errorOfStored({{"speed", "3"}}), HasSubstr("tracker.speed: unknown key"));
 }
 
@@ -228,6 +241,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {refine_plant: 2}\n", "tracker.refine_plant"},
       {cameras + "tracker: {refine_swap: yes please}\n",
        "tracker.refine_swap: expected true, false or knees, got 'yes please'"},
+      {cameras + "tracker: {refine_swap_margin: -5}\n",
+       "tracker.refine_swap_margin: must be between 0 and"},
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},
@@ -259,7 +274,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "body_model: builtin:hand\nscene_motion: " + walk + "\n",
        "body_model: a scene_motion (BVH) drives a human body, not builtin:hand"},
   };
-  for (const auto& [yaml, expected] : cases) EXPECT_THAT(errorOf(yaml), HasSubstr(expected)) << yaml;
+  for (const auto& [yaml, expected] : cases)
+    EXPECT_THAT(errorOf(yaml), HasSubstr(expected)) << yaml;
 }
 
 TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {

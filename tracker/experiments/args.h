@@ -5,6 +5,7 @@
 #include <cctype>
 #include <map>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -87,9 +88,11 @@ class Args {
     }
     if (used == 0 || used != it->second.size())
       throw std::invalid_argument("--" + flag + ": not a number: '" + it->second + "'");
-    if (!(v >= min && v <= max))
-      throw std::invalid_argument("--" + flag + ": " + it->second + " is outside [" +
-                                  std::to_string(min) + ", " + std::to_string(max) + "]");
+    if (!(v >= min && v <= max)) {
+      std::ostringstream range;
+      range << "[" << min << ", " << max << "]";  // 0.5, not 0.500000
+      throw std::invalid_argument("--" + flag + ": " + it->second + " is outside " + range.str());
+    }
     return v;
   }
 

@@ -41,7 +41,8 @@ void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera) {
   // Holes: a few small blobs inside the body go missing.
   for (int hole = 0; hole < 4; ++hole) {
     for (int attempt = 0; attempt < 30; ++attempt) {
-      const cv::Point p(rng.uniform(box.x, box.x + box.width), rng.uniform(box.y, box.y + box.height));
+      const cv::Point p(rng.uniform(box.x, box.x + box.width),
+                        rng.uniform(box.y, box.y + box.height));
       if (!mask.at<uint8_t>(p)) continue;
       cv::circle(mask, p, rng.uniform(2, 7), cv::Scalar(0), cv::FILLED);
       break;
@@ -52,8 +53,8 @@ void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera) {
   const int side = rng.uniform(0, 2) ? 1 : -1;
   const cv::Point centre(static_cast<int>(box.x + 0.5 * box.width + side * 0.25 * h),
                          static_cast<int>(box.y + box.height - 0.03 * h));
-  cv::ellipse(mask, centre, cv::Size(static_cast<int>(0.28 * h), static_cast<int>(0.045 * h)), 0,
-              0, 360, cv::Scalar(255), cv::FILLED);
+  cv::ellipse(mask, centre, cv::Size(static_cast<int>(0.28 * h), static_cast<int>(0.045 * h)), 0, 0,
+              360, cv::Scalar(255), cv::FILLED);
 }
 
 namespace {
@@ -72,7 +73,8 @@ Eigen::VectorXd misplaced(const BodyModel& model, Eigen::VectorXd q, const std::
     q[model.dofIndex("root_tx")] += 0.3;
     return q;
   }
-  throw std::invalid_argument("--start-offset: expected none, arm60, body30cm or acquire, got '" + offset + "'");
+  throw std::invalid_argument("--start-offset: expected none, arm60, body30cm or acquire, got '" +
+                              offset + "'");
 }
 
 // Every camera's true silhouette (grey) with the outline of the estimate's (red), for looking at
@@ -120,7 +122,8 @@ std::vector<Limb> limbsOf(const BodyModel& model) {
 // The legs' error with the estimate's left leg scored against the truth's right leg and the other
 // way round: well under the legs' own error when the tracker swapped them, a silhouette ambiguity.
 // NaN for legs that do not pair up point for point, which no comparison takes for a swap.
-double legsSwappedError(const Limb& left, const Limb& right, const std::vector<Eigen::Vector3d>& truth,
+double legsSwappedError(const Limb& left, const Limb& right,
+                        const std::vector<Eigen::Vector3d>& truth,
                         const std::vector<Eigen::Vector3d>& estimate) {
   if (left.points.size() != right.points.size()) return NAN;
   double sum = 0;
@@ -172,8 +175,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       retargetBvh(fitted, bvh.skeleton, bvh.motion, 25, config.start_frame + config.frames);
   Motion truth = retarget.motion;
   if (config.start_frame >= static_cast<int>(truth.size()))
-    throw std::invalid_argument("--start-frame: the motion has only " + std::to_string(truth.size()) +
-                                " frames at 25 Hz");
+    throw std::invalid_argument("--start-frame: the motion has only " +
+                                std::to_string(truth.size()) + " frames at 25 Hz");
   truth.erase(truth.begin(), truth.begin() + config.start_frame);
   const int frames = std::min<int>(config.frames, static_cast<int>(truth.size()));
 
@@ -181,8 +184,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   BodyModel model = fitted;
   if (config.dofs == 17) {
     if (fitted.gait_dofs.size() != 17)
-      throw std::invalid_argument("the body model defines " + std::to_string(fitted.gait_dofs.size()) +
-                                  " gait DOFs, not 17");
+      throw std::invalid_argument("the body model defines " +
+                                  std::to_string(fitted.gait_dofs.size()) + " gait DOFs, not 17");
     const Eigen::VectorXd neutral = fitted.neutralPose();
     model = freezeAllBut(fitted, fitted.gait_dofs, neutral);
     for (Eigen::VectorXd& q : truth)
@@ -200,22 +203,25 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   const BodyModel tracked = atFrameRate(model, model.frame_rate / config.speed_scale);
   std::unique_ptr<PoseFilter> filter;
   AcquiringFilter* acquiring = nullptr;
-  const auto makeTrackerFilter = [&] { return makeFilter(config.method, tracked, rig, options, pool); };
+  const auto makeTrackerFilter = [&] {
+    return makeFilter(config.method, tracked, rig, options, pool);
+  };
   if (config.start_offset == "acquire" || config.lost_below) {
     // The filter finds the body itself, in the model's stances, as mocapd does on real cameras:
     // at the start when there is no true first pose, and again when it declares itself lost.
     AcquiringOptions acquiring_options;
     acquiring_options.lost_below = config.lost_below.value_or(0);
     acquiring_options.lost_after = config.lost_after;
-    auto owned = std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
-                                                   options.likelihood, makeTrackerFilter,
-                                                   acquiring_options);
+    auto owned =
+        std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
+                                          options.likelihood, makeTrackerFilter, acquiring_options);
     acquiring = owned.get();
     filter = std::move(owned);
   } else {
     filter = makeTrackerFilter();
   }
-  if (config.start_offset != "acquire") filter->reset(misplaced(model, truth[0], config.start_offset));
+  if (config.start_offset != "acquire")
+    filter->reset(misplaced(model, truth[0], config.start_offset));
 
   SceneRenderer renderer(model, rig);
   const int missed_limb = model.segmentIndex("l_forearm");
@@ -269,10 +275,12 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     tracked_frames.push_back(f);
     const bool realistic = config.noise == "realistic";
     // A limb missed by segmentation in one camera for 5 frames out of every 50.
-    if (realistic && missed_limb >= 0 && f % 50 >= 20 && f % 50 < 25) renderer.hideSegment(0, missed_limb);
+    if (realistic && missed_limb >= 0 && f % 50 >= 20 && f % 50 < 25)
+      renderer.hideSegment(0, missed_limb);
     renderer.renderSilhouettes(truth[f], images);
     renderer.clearHidden();
-    const bool out_of_view = f >= config.dropout_at && f < config.dropout_at + config.dropout_frames;
+    const bool out_of_view =
+        f >= config.dropout_at && f < config.dropout_at + config.dropout_frames;
     for (std::size_t c = 0; c < rig.size(); ++c) {
       if (realistic) corruptSilhouette(images[c], config.seed, f, static_cast<int>(c));
       if (out_of_view) images[c].setTo(0);
@@ -281,7 +289,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     if (config.reset_every > 0 && f > 0 && f % config.reset_every == 0) filter->reset(truth[f - 1]);
     const auto start = std::chrono::steady_clock::now();
     const FrameEstimate estimate = filter->step(masks);
-    tracking_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    tracking_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     evaluations += estimate.evaluations;
     renders += estimate.segment_renders;
     frames_without_pose += !estimate.found;
@@ -317,7 +326,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
                                    std::max(latestError(left_arm), latestError(right_arm)),
                                    heading_error, legs_swapped)];
     if (scorer) {
-      const double truth_score = logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0));
+      const double truth_score =
+          logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0));
       const PixelCounts estimate_counts = scorer->evaluate(estimate.q, masks, 0);
       const double estimate_score = logLikelihood(options.likelihood, estimate_counts);
       lost_truth_ahead += lost && truth_score > estimate_score + 20;
@@ -354,8 +364,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     for (int i = 0; i < scored; ++i) {
       limb_sum += limb_error[l][i];
       limb_lost_frames += limb_error[l][i] > 100.0;
-      if (config.start_offset == "arm60" && static_cast<int>(l) == left_arm &&
-          arm_recovery < 0 && limb_error[l][i] < 50.0)
+      if (config.start_offset == "arm60" && static_cast<int>(l) == left_arm && arm_recovery < 0 &&
+          limb_error[l][i] < 50.0)
         arm_recovery = tracked_frames[i];
     }
     per_limb[limbs[l].name] = limb_sum / scored;
@@ -382,6 +392,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"refine_plant", refined && options.refine_plant},
       {"refine_swap", refined && options.refine_swap},
       {"refine_swap_knees_only", refined && options.refine_swap && options.refine_swap_knees_only},
+      {"refine_swap_margin", refined && options.refine_swap ? options.refine_swap_margin : 0.0},
       {"refine_restart_share", refined ? options.refine_restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / scored},
       {"segment_renders_per_frame", static_cast<double>(renders) / scored},
@@ -453,8 +464,7 @@ int runHumanCommand(int argc, char** argv) {
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");
-  config.filter.injection_share =
-      args.real("injection", config.filter.injection_share, 0.0, 0.99);
+  config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
   if (args.has("inject")) config.filter.injection = parseInjection(args.text("inject", ""));
   config.filter.keep = static_cast<int>(args.integer("keep", config.filter.keep, 1, 100000));
   config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));
@@ -475,6 +485,8 @@ int runHumanCommand(int argc, char** argv) {
       args.integer("refine-swap-knees", config.filter.refine_swap_knees_only ? 1 : 0, 0, 1) == 1;
   if (config.filter.refine_swap_knees_only && !config.filter.refine_swap)
     throw std::invalid_argument("--refine-swap-knees 1 needs --refine-swap 1");
+  config.filter.refine_swap_margin =
+      args.real("refine-swap-margin", config.filter.refine_swap_margin, 0.0, 1e7);
   config.filter.refine_facing_prior =
       args.real("refine-facing-prior", config.filter.refine_facing_prior, 0.0, 1e6);
   const std::string estimate = args.text("estimate", "mean");
