@@ -176,8 +176,8 @@ class ConfigParser {
     onlyKeys(
         tracker, "tracker",
         {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead", "refine",
-         "refine_hold", "refine_plant", "refine_swap", "refine_swap_margin", "refine_restarts",
-         "refine_facing_prior", "dofs", "start", "lost_below", "lost_after"});
+         "refine_max", "refine_hold", "refine_plant", "refine_swap", "refine_swap_margin",
+         "refine_restarts", "refine_facing_prior", "dofs", "start", "lost_below", "lost_after"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -205,6 +205,8 @@ class ConfigParser {
              "expected none, root, subtree or body, got '" + t.lookahead + "'");
     }
     if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
+    if (tracker["refine_max"])
+      t.refine_max = integer(tracker["refine_max"], "tracker.refine_max", 0, 10'000'000);
     if (tracker["refine_hold"])
       t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
     if (tracker["refine_plant"])
@@ -414,6 +416,7 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.refine_swap_knees_only = refine_swap && refine_swap_knees;
   options.refine_swap_margin = refine_swap_margin;
   options.refine_restart_share = refine_restarts;
+  options.refine_max_evaluations = refine_max;
   options.refine_facing_prior = refine_facing_prior;
   return options;
 }
@@ -435,6 +438,7 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"seed", std::to_string(seed)},
           {"lookahead", lookahead},
           {"refine", exact(refine)},
+          {"refine_max", std::to_string(refine_max)},
           {"refine_hold", refine_hold ? "true" : "false"},
           {"refine_plant", refine_plant ? "true" : "false"},
           {"refine_swap", !refine_swap        ? "false"

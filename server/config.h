@@ -40,6 +40,7 @@ struct TrackerSettings {
   // true, true, 0.14, 16 (with inject: segment, injection: 0.05, evaluations: 2000).
   std::string lookahead = "none";
   double refine = 0;
+  int refine_max = 0;  // at most this many of the refinement's evaluations a frame; 0: no cap
   bool refine_hold = false;
   bool refine_plant = false;
   bool refine_swap = false;
@@ -126,7 +127,9 @@ ServerConfig loadConfigFile(const std::string& path);
 
 // The tracker settings of a replay: the ones the session stored (`stored`, from its manifest,
 // named `source` in errors), with the keys the configuration set itself on top and the
-// configuration's thread count. Throws ConfigError naming the source and the key.
+// configuration's thread count. A key the session did not store (it was recorded before the key
+// existed) takes the plain default, which leaves the later option off, not the value for people.
+// Throws ConfigError naming the source and the key.
 TrackerSettings replayTrackerSettings(
     const ServerConfig& config, const std::vector<std::pair<std::string, std::string>>& stored,
     const std::string& source);

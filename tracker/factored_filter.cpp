@@ -25,9 +25,9 @@ namespace {
 
 struct Layer {
   int segment = -1;
-  int dof = -1;             // -1: observation only (a DOF-less segment moved by its ancestors)
-  bool lookahead = false;   // ranked by a look-ahead (see FilterOptions::Lookahead)
-  bool first_dof = false;   // the segment's first sampled DOF
+  int dof = -1;            // -1: observation only (a DOF-less segment moved by its ancestors)
+  bool lookahead = false;  // ranked by a look-ahead (see FilterOptions::Lookahead)
+  bool first_dof = false;  // the segment's first sampled DOF
 };
 
 // A segment placed in one particle's chain: its world pose and footprints (one per camera).
@@ -111,6 +111,8 @@ class FactoredFilter final : public PoseFilter {
     samples_ = options.samples;
     if (options.refine_share < 0 || options.refine_share >= 1)
       throw std::invalid_argument("factored filter: refine share must be in [0, 1)");
+    if (options.refine_max_evaluations < 0)
+      throw std::invalid_argument("factored filter: refine_max_evaluations must be >= 0");
     if (options.refine_facing_prior < 0)
       throw std::invalid_argument("factored filter: facing prior must be >= 0");
     if (samples_ <= 0) {
@@ -125,8 +127,12 @@ class FactoredFilter final : public PoseFilter {
     candidates_per_layer_ = options.keep * samples_;
     if (options.refine_share > 0) {
       // The refinement takes what the layers leave of the budget.
-      const int layer_evaluations = sampling_layers * candidates_per_layer_ + observation_layers * options.keep;
+      const int layer_evaluations =
+          sampling_layers * candidates_per_layer_ + observation_layers * options.keep;
       refine_evaluations_ = std::max(2, options.evaluations_per_frame - layer_evaluations);
+      if (options.refine_max_evaluations > 0)
+        refine_evaluations_ =
+            std::min(refine_evaluations_, std::max(2, options.refine_max_evaluations));
       for (const Layer& layer : layers_)
         if (layer.dof >= 0) refine_dofs_.push_back(layer.dof);
       refine_steps_.resize(refine_dofs_.size());
@@ -138,15 +144,16 @@ class FactoredFilter final : public PoseFilter {
       if (options.refine_restart_share > 0) findRestartLimbs();
       if (options.refine_facing_prior > 0) findFacingTwists();
       // Each draw is followed by up to 3 poses of local search.
-      restart_draws_ = static_cast<int>(
-          std::lround(options.refine_restart_share * refine_evaluations_ / 4));
+      restart_draws_ =
+          static_cast<int>(std::lround(options.refine_restart_share * refine_evaluations_ / 4));
       refiner_ = std::make_unique<IncrementalBodyEvaluator>(
           model, rig, options.likelihood.points_per_circle, &pool);
     }
 
     for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
     candidates_.resize(candidates_per_layer_);
-    candidate_spans_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size() * max_rows_);
+    candidate_spans_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size() *
+                            max_rows_);
     candidate_footprints_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size());
     candidate_counts_.resize(candidate_footprints_.size());
     const std::size_t max_nodes = model.segments.size() + layers_.size() * options.keep;
@@ -157,7 +164,8 @@ class FactoredFilter final : public PoseFilter {
     for (int w = 0; w < pool.size(); ++w)
       scratch_.emplace_back(model, options.likelihood.points_per_circle, rig.size(),
                             model.segments.size(), max_rows_);
-    for (int k = 0; k < options.keep; ++k) rest_.emplace_back(rig.size(), model.segments.size(), max_rows_);
+    for (int k = 0; k < options.keep; ++k)
+      rest_.emplace_back(rig.size(), model.segments.size(), max_rows_);
   }
 
   std::string name() const override { return "factored"; }
@@ -192,7 +200,8 @@ class FactoredFilter final : public PoseFilter {
       pool_.parallelFor(static_cast<int>(pose_groups_.size()),
                         [&](int g, int worker) { evaluateGroup(layer, g, count, masks, worker); });
       estimate.evaluations += count;
-      estimate.segment_renders += static_cast<long>(pose_groups_.size()) +
+      estimate.segment_renders +=
+          static_cast<long>(pose_groups_.size()) +
           static_cast<long>(count) * (layer.lookahead ? descendants_[layer.segment].size() : 0);
       keepBest(layer, count);
     }
@@ -226,10 +235,14 @@ class FactoredFilter final : public PoseFilter {
 
   bool usesLookahead(int s) const {
     switch (options_.lookahead) {
-      case FilterOptions::Lookahead::kNone: return false;
-      case FilterOptions::Lookahead::kRoot: return model_.segments[s].parent < 0;
-      case FilterOptions::Lookahead::kSubtree: return !descendants_[s].empty();
-      case FilterOptions::Lookahead::kBody: return true;
+      case FilterOptions::Lookahead::kNone:
+        return false;
+      case FilterOptions::Lookahead::kRoot:
+        return model_.segments[s].parent < 0;
+      case FilterOptions::Lookahead::kSubtree:
+        return !descendants_[s].empty();
+      case FilterOptions::Lookahead::kBody:
+        return true;
     }
     return false;
   }
@@ -416,10 +429,9 @@ class FactoredFilter final : public PoseFilter {
     } else {
       for (std::size_t c = 0; c < rig_.size(); ++c) {
         footprints[c] = candidateFootprints(same_pose)[c];
-        camera_counts[c] = recountFootprint(masks[c], footprints[c],
-                                            candidate_counts_[same_pose * rig_.size() + c],
-                                            scratch.explained[c].data(),
-                                            static_cast<int>(scratch.explained[c].size()));
+        camera_counts[c] = recountFootprint(
+            masks[c], footprints[c], candidate_counts_[same_pose * rig_.size() + c],
+            scratch.explained[c].data(), static_cast<int>(scratch.explained[c].size()));
         counts += camera_counts[c];
       }
     }
@@ -427,8 +439,9 @@ class FactoredFilter final : public PoseFilter {
     cand.selection = cand.log_weight;
     if (!layer.lookahead) return;
     if (options_.lookahead != FilterOptions::Lookahead::kBody) {
-      cand.selection = parent.log_weight +
-                       logLikelihood(options_.likelihood, counts + lookAhead(s, cand, i, masks, scratch));
+      cand.selection =
+          parent.log_weight +
+          logLikelihood(options_.likelihood, counts + lookAhead(s, cand, i, masks, scratch));
       return;
     }
     // The whole body: the parent's placed segments and the rest at their previous pose (counted
@@ -440,8 +453,9 @@ class FactoredFilter final : public PoseFilter {
       total += countFootprint(masks[c], candidateFootprints(i)[c], scratch.explained[c].data(),
                               static_cast<int>(scratch.explained[c].size()));
     }
-    cand.selection = parent.log_weight +
-                     logLikelihood(options_.likelihood, total + lookAhead(s, cand, i, masks, scratch));
+    cand.selection =
+        parent.log_weight +
+        logLikelihood(options_.likelihood, total + lookAhead(s, cand, i, masks, scratch));
   }
 
   // For kBody: places every segment of parent particle p that is neither placed this frame nor in
@@ -472,9 +486,11 @@ class FactoredFilter final : public PoseFilter {
         continue;
       for (std::size_t c = 0; c < rig_.size(); ++c)
         spans[c] = &rest.spans[(k * rig_.size() + c) * max_rows_];
-      rest.counts += observeSegment(model_.segments[o].shape, scratch.kinematics.world[o], rig_, masks,
-                                    scratch.rasterizer, spans, scratch.footprints.data(), rest.explained);
-      for (std::size_t c = 0; c < rig_.size(); ++c) rest.explained[c].push_back(scratch.footprints[c]);
+      rest.counts +=
+          observeSegment(model_.segments[o].shape, scratch.kinematics.world[o], rig_, masks,
+                         scratch.rasterizer, spans, scratch.footprints.data(), rest.explained);
+      for (std::size_t c = 0; c < rig_.size(); ++c)
+        rest.explained[c].push_back(scratch.footprints[c]);
       ++rest.renders;
       ++k;
     }
@@ -492,11 +508,13 @@ class FactoredFilter final : public PoseFilter {
     const std::vector<int>& below = descendants_[s];
     for (std::size_t k = 0; k < below.size(); ++k) {
       const int d = below[k];
-      scratch.poses[d] = scratch.poses[model_.segments[d].parent] * localTransform(model_, d, cand.q);
+      scratch.poses[d] =
+          scratch.poses[model_.segments[d].parent] * localTransform(model_, d, cand.q);
       for (std::size_t c = 0; c < rig_.size(); ++c)
         spans[c] = &scratch.lookahead_spans[(k * rig_.size() + c) * max_rows_];
-      total += observeSegment(model_.segments[d].shape, scratch.poses[d], rig_, masks,
-                              scratch.rasterizer, spans, scratch.footprints.data(), scratch.explained);
+      total +=
+          observeSegment(model_.segments[d].shape, scratch.poses[d], rig_, masks,
+                         scratch.rasterizer, spans, scratch.footprints.data(), scratch.explained);
       for (std::size_t c = 0; c < rig_.size(); ++c)
         scratch.explained[c].push_back(scratch.footprints[c]);
     }
@@ -667,8 +685,8 @@ class FactoredFilter final : public PoseFilter {
   void holdChildren(const Eigen::VectorXd& q, Eigen::VectorXd& tried,
                     const std::vector<HeldChild>& children) {
     const int s = model_.segments[children[0].segment].parent;
-    const Eigen::Matrix3d turn =
-        localTransform(model_, s, tried).linear().transpose() * localTransform(model_, s, q).linear();
+    const Eigen::Matrix3d turn = localTransform(model_, s, tried).linear().transpose() *
+                                 localTransform(model_, s, q).linear();
     for (const HeldChild& held : children) {
       const Segment& child = model_.segments[held.segment];
       const Eigen::Matrix3d target = turn * localTransform(model_, held.segment, q).linear();
@@ -763,10 +781,10 @@ class FactoredFilter final : public PoseFilter {
     }
   }
 
-  // FilterOptions::refine_restart_share: restarts one limb (the next in turn each frame) from random
-  // draws of its root segment's angles, searches around the best draw on all the limb's angles, and
-  // keeps the result if it beats the pose; otherwise the evaluator goes back to the pose. Every pose
-  // tried counts against `budget`.
+  // FilterOptions::refine_restart_share: restarts one limb (the next in turn each frame) from
+  // random draws of its root segment's angles, searches around the best draw on all the limb's
+  // angles, and keeps the result if it beats the pose; otherwise the evaluator goes back to the
+  // pose. Every pose tried counts against `budget`.
   void restartLimb(Eigen::VectorXd& q, double& best, int& budget) {
     if (restart_limbs_.empty()) return;
     const RestartLimb& limb = restart_limbs_[restart_frame_++ % restart_limbs_.size()];
@@ -776,7 +794,8 @@ class FactoredFilter final : public PoseFilter {
     for (int k = 0; k < restart_draws_ && budget > 2; ++k) {
       tried = q;
       for (int d : limb.root_dofs)
-        tried[d] = std::uniform_real_distribution<double>(model_.dofs[d].min, model_.dofs[d].max)(rng_);
+        tried[d] =
+            std::uniform_real_distribution<double>(model_.dofs[d].min, model_.dofs[d].max)(rng_);
       const double value = trialScore(tried, budget);
       refiner_->reject();
       if (value > local_value) {
@@ -792,17 +811,18 @@ class FactoredFilter final : public PoseFilter {
   }
 
   // The second half of a restart and of a swap. `local`, the evaluator's current pose, scoring
-  // `local_value`, is searched by coordinate steps on `dofs` as the refinement takes them, for up to
-  // `poses` evaluations with one kept back to restore the pose; a sweep that tries nothing (every
-  // step too small to move a DOF) ends it. The result replaces q if it beats `best` by `margin`
-  // (log-likelihood); otherwise the evaluator goes back to q.
+  // `local_value`, is searched by coordinate steps on `dofs` as the refinement takes them, for up
+  // to `poses` evaluations with one kept back to restore the pose; a sweep that tries nothing
+  // (every step too small to move a DOF) ends it. The result replaces q if it beats `best` by
+  // `margin` (log-likelihood); otherwise the evaluator goes back to q.
   void searchAndKeep(const std::vector<int>& dofs, int poses, double margin, Eigen::VectorXd& local,
                      double local_value, Eigen::VectorXd& q, double& best, int& budget) {
     std::vector<double>& steps = restart_steps_;
     steps.clear();
     for (int d : dofs) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
     const int search_start = budget;
-    for (int swept_from = -1; search_start - budget < poses && budget > 1 && budget != swept_from;) {
+    for (int swept_from = -1;
+         search_start - budget < poses && budget > 1 && budget != swept_from;) {
       swept_from = budget;
       for (std::size_t j = 0; j < dofs.size() && budget > 1; ++j)
         stepDof(dofs[j], steps[j], nullptr, local, local_value, budget, 1);
@@ -823,8 +843,8 @@ class FactoredFilter final : public PoseFilter {
     const auto fail = [](const std::string& why) {
       throw std::invalid_argument("factored filter: refine_swap: " + why);
     };
-    if (model_.feet.size() != 2) fail("the body model names " + std::to_string(model_.feet.size()) +
-                                      " feet, not two");
+    if (model_.feet.size() != 2)
+      fail("the body model names " + std::to_string(model_.feet.size()) + " feet, not two");
     std::vector<int> legs[2], knees[2];
     for (int f = 0; f < 2; ++f) {
       const int foot = model_.segmentIndex(model_.feet[f]);
@@ -883,7 +903,8 @@ class FactoredFilter final : public PoseFilter {
       RestartLimb limb;
       const auto rotations = [&](int segment, std::vector<int>& out) {
         for (int d : model_.segments[segment].dofs)
-          if (model_.dofs[d].isFree() && model_.dofs[d].type == DofType::kRotation) out.push_back(d);
+          if (model_.dofs[d].isFree() && model_.dofs[d].type == DofType::kRotation)
+            out.push_back(d);
       };
       rotations(static_cast<int>(s), limb.root_dofs);
       if (limb.root_dofs.size() < 2) continue;
@@ -962,18 +983,18 @@ class FactoredFilter final : public PoseFilter {
   std::vector<int> swap_dofs_;
   int refine_evaluations_ = 0;
   std::unique_ptr<IncrementalBodyEvaluator> refiner_;  // only with a refine share
-  std::vector<int> refine_dofs_;                // the free DOFs, in layer order
-  std::vector<double> refine_steps_;            // per refined DOF
+  std::vector<int> refine_dofs_;                       // the free DOFs, in layer order
+  std::vector<double> refine_steps_;                   // per refined DOF
   std::vector<std::vector<HeldChild>> refine_held_;  // per refined DOF (FilterOptions::refine_hold)
-  std::vector<double> refine_hold_steps_;       // per refined DOF
-  std::vector<PlantedFoot> planted_feet_;       // FilterOptions::refine_plant
-  KinematicsData plant_kinematics_{model_};     // scratch of plantFeet()
+  std::vector<double> refine_hold_steps_;            // per refined DOF
+  std::vector<PlantedFoot> planted_feet_;            // FilterOptions::refine_plant
+  KinematicsData plant_kinematics_{model_};          // scratch of plantFeet()
   std::vector<Eigen::Vector3d> plant_targets_;
   Eigen::VectorXd plant_probe_;
-  std::vector<RestartLimb> restart_limbs_;      // FilterOptions::refine_restart_share
+  std::vector<RestartLimb> restart_limbs_;  // FilterOptions::refine_restart_share
   int restart_draws_ = 0;
   long restart_frame_ = 0;
-  Eigen::VectorXd restart_pose_;                // scratch of restartLimb()
+  Eigen::VectorXd restart_pose_;  // scratch of restartLimb()
   std::vector<double> restart_steps_;
   Eigen::VectorXd refine_trial_, refine_sweep_start_;  // scratch of refine()
   // FilterOptions::refine_facing_prior: each facing twist's DOF and sign.

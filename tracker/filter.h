@@ -1,7 +1,7 @@
 // The pose filters behind one interface: the factored particle filter (paper §5, the default),
 // Condensation and the annealed particle filter as baselines. All share the body model, the
-// likelihood and the proposal (uniform on an interval of +-max_speed around the previous value), and
-// count particle evaluations the paper's way.
+// likelihood and the proposal (uniform on an interval of +-max_speed around the previous value),
+// and count particle evaluations the paper's way.
 #pragma once
 
 #include <cstdint>
@@ -53,6 +53,9 @@ struct FilterOptions {
   // starting from the best particle. The layers place each DOF with the segments not yet placed
   // standing where they were a frame ago; this corrects what that greedy order got wrong.
   double refine_share = 0;
+  // factored, with a refinement: at most this many of its evaluations per frame (0: all the
+  // layers leave), for a step that must fit a time budget; the rest of the budget goes unspent.
+  int refine_max_evaluations = 0;
   double refine_step = 0.5;  // the pattern search's first step, in speed limits of each DOF
   // factored, with a refinement: a rotation DOF whose segment has ball-joint children (three
   // rotations about distinct axes) that fails both ways is tried once more both ways with those
@@ -92,18 +95,18 @@ struct FilterOptions {
   // so without it the heading drifts by tens of degrees over a walk. Unlike a prior on the
   // heading's change, it does not hold back a subject who turns. 0: off.
   double refine_facing_prior = 0;
-  int annealing_layers = 5;       // annealed: number of annealing layers per frame
+  int annealing_layers = 5;  // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;
 };
 
 struct FrameEstimate {
-  Eigen::VectorXd q;          // pose estimate: weighted mean of the particle set
-  double spread = 0;          // weighted RMS distance of the particles from q (DOF units)
+  Eigen::VectorXd q;  // pose estimate: weighted mean of the particle set
+  double spread = 0;  // weighted RMS distance of the particles from q (DOF units)
   double best_log_weight = 0;
-  long evaluations = 0;       // particle evaluations spent this frame (the paper's count)
-  long segment_renders = 0;   // segment rasterizations (the compute actually spent)
-  bool cut_short = false;     // optional work (the refinement) ended early: see PoseFilter::setYield
+  long evaluations = 0;      // particle evaluations spent this frame (the paper's count)
+  long segment_renders = 0;  // segment rasterizations (the compute actually spent)
+  bool cut_short = false;    // optional work (the refinement) ended early: see PoseFilter::setYield
   // False when the filter has no pose to give: an acquiring filter that found no subject in the
   // frame (q is then meaningless). Every filter given a starting pose always has one.
   bool found = true;

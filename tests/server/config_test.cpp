@@ -44,8 +44,9 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
       "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
       "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
       " refine_hold: true, refine_plant: true, refine_swap: true, refine_restarts: 0.14,"
-      " refine_facing_prior: 16, dofs: gait}\n",
+      " refine_facing_prior: 16, refine_max: 30, dofs: gait}\n",
       "test.yaml", ".");
+  EXPECT_EQ(config.tracker.filterOptions().refine_max_evaluations, 30);
   EXPECT_EQ(config.tracker.lookahead, "body");
   EXPECT_EQ(config.tracker.dofs, "gait");
   EXPECT_EQ(config.tracker.refine, 0.4);
@@ -58,6 +59,7 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   const ServerConfig plain = parseConfig(kDefaultConfigYaml, "default", ".");
   EXPECT_EQ(plain.tracker.lookahead, "none");
   EXPECT_EQ(plain.tracker.refine, 0);
+  EXPECT_EQ(plain.tracker.filterOptions().refine_max_evaluations, 0);
   EXPECT_FALSE(plain.tracker.refine_hold);
   EXPECT_FALSE(plain.tracker.refine_plant);
   EXPECT_FALSE(plain.tracker.refine_swap);
@@ -177,6 +179,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   recorded.injection = 0.1 + 0.2;  // not the shortest decimal: must still read back exactly
   recorded.dofs = "gait";
   recorded.refine_swap = true;  // not the people default: must come back from the session
+  recorded.refine_max = 30;     // likewise
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
 
   // A configuration without tracker keys: the session's settings, the configuration's threads.
@@ -194,6 +197,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_TRUE(as_recorded.refine_plant);
   EXPECT_TRUE(as_recorded.refine_swap);
   EXPECT_EQ(as_recorded.refine_restarts, 0.14);
+  EXPECT_EQ(as_recorded.refine_max, 30);
   EXPECT_EQ(as_recorded.dofs, "gait");
   EXPECT_EQ(as_recorded.threads, 1);
 
@@ -237,6 +241,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {lookahead: ahead}\n",
        "tracker.lookahead: expected none, root, subtree or body, got 'ahead'"},
       {cameras + "tracker: {refine: 1.5}\n", "tracker.refine: must be between 0 and 0.99"},
+      {cameras + "tracker: {refine_max: -1}\n", "tracker.refine_max"},
       {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
       {cameras + "tracker: {refine_plant: 2}\n", "tracker.refine_plant"},
       {cameras + "tracker: {refine_swap: yes please}\n",

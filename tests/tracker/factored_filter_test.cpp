@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <tuple>
+
 #include "tests/tracker/filter_test_support.h"
 #include "tracker/filter.h"
 #include "tracker/motion.h"
@@ -86,23 +88,30 @@ TEST(FactoredFilter, LookAheadKeepsTheBudgetAndThreadIndependence) {
   }
 }
 
-TEST(FactoredFilter, RefinementTakesWhatTheLayersLeaveOfTheBudget) {
+TEST(FactoredFilter, RefinementTakesWhatTheLayersLeaveOfTheBudgetUpToItsCap) {
   HandScene scene;
   const Motion motion = generateMotion(scene.model, 3, 5);
-  for (double share : {0.2, 0.4, 0.7}) {
+  // At 375: S = 3 at shares 0.2 and 0.4 (225 in the layers), 1 at 0.7 (75); a cap of 30 leaves
+  // 225 + 30 spent, one above the layers' share leaves the budget as it was.
+  for (const auto& [share, cap, spent] :
+       {std::tuple{0.2, 0, 375}, {0.4, 0, 375}, {0.7, 0, 375}, {0.2, 30, 255}, {0.2, 500, 375}}) {
     FilterOptions options;
     options.refine_share = share;
+    options.refine_max_evaluations = cap;
     WorkerPool pool(1);
     auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
     filter->reset(motion[0]);
     for (const auto& q : motion) {
       const FrameEstimate e = filter->step(scene.masks(q));
-      EXPECT_EQ(e.evaluations, 375) << "share " << share;
+      EXPECT_EQ(e.evaluations, spent) << "share " << share << ", cap " << cap;
     }
   }
+  WorkerPool pool(1);
   FilterOptions bad;
   bad.refine_share = 1.0;
-  WorkerPool pool(1);
+  EXPECT_THROW(makeFilter("factored", scene.model, scene.rig, bad, pool), std::invalid_argument);
+  bad.refine_share = 0.2;
+  bad.refine_max_evaluations = -1;
   EXPECT_THROW(makeFilter("factored", scene.model, scene.rig, bad, pool), std::invalid_argument);
 }
 
@@ -124,7 +133,8 @@ TEST(FactoredFilter, RefinementEndsNearerTheTruthAtTheSameBudget) {
     }
     error[refined] = sum / 3;
   }
-  EXPECT_LT(error[1], 0.7 * error[0]) << "refined " << error[1] << " m, layers only " << error[0] << " m";
+  EXPECT_LT(error[1], 0.7 * error[0])
+      << "refined " << error[1] << " m, layers only " << error[0] << " m";
 }
 
 // A budget far beyond what a converged pose needs: the steps shrink until they no longer move a
@@ -209,15 +219,16 @@ TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {
   EXPECT_LT(mcpErrorAfter(0.1, 4), 10.0);
 }
 
-// Two 240x180 cameras 90 degrees apart, 3 m from the vertical axis at `height`, looking at `target`.
+// Two 240x180 cameras 90 degrees apart, 3 m from the vertical axis at `height`, looking at
+// `target`.
 Rig twoCameras(const Eigen::Vector3d& target, double height) {
   Rig rig;
   for (int i = 0; i < 2; ++i) {
     const double azimuth = (30.0 + 90.0 * i) * M_PI / 180;
-    rig.push_back(CameraModel::lookAt(
-        "cam" + std::to_string(i),
-        Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), height), target,
-        Eigen::Vector3d::UnitZ(), 240, 180, 200));
+    rig.push_back(
+        CameraModel::lookAt("cam" + std::to_string(i),
+                            Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), height),
+                            target, Eigen::Vector3d::UnitZ(), 240, 180, 200));
   }
   return rig;
 }
@@ -300,7 +311,7 @@ segments:
     shape: {type: cone, axis: [0, 0, -1], length: 0.8, radius_start: 0.07, radius_end: 0.05}
     points: [{name: l_foot, at: [0, 0, -0.8]}]
 )",
-                                         "pelvis_and_legs.yaml");
+                        "pelvis_and_legs.yaml");
 }
 
 // The estimate after 10 frames of the factored filter from `start` with `options` (400

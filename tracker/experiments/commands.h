@@ -9,7 +9,7 @@ inline constexpr const char* kHandUsage =
     "hand [--method factored|condensation] [--evals N] [--frames N] [--seed S] [--cameras N]\n"
     "       [--motion FILE.csv] [--model FILE.yaml] [--threads N] [--keep K] [--samples S]\n"
     "       [--injection SHARE] [--beta B] [--lookahead none|root|subtree|body] [--refine SHARE]\n"
-    "       [--describe]";
+    "       [--refine-max N] [--describe]";
 int runHandCommand(int argc, char** argv);
 
 inline constexpr const char* kHumanUsage =

@@ -80,6 +80,7 @@ nlohmann::json runHandExperiment(const HandExperimentConfig& config) {
       {"seed", config.seed},
       {"threads", pool.size()},
       {"refine", config.method == "factored" ? config.filter.refine_share : 0.0},
+      {"refine_max", config.method == "factored" ? config.filter.refine_max_evaluations : 0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
       {"mean_relative_error", moving ? sum / moving : 0.0},
@@ -117,6 +118,8 @@ int runHandCommand(int argc, char** argv) {
   config.filter.likelihood.beta = args.real("beta", config.filter.likelihood.beta, 1e-9, 1e3);
   config.filter.lookahead = parseLookahead(args.text("lookahead", "none"));
   config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
+  config.filter.refine_max_evaluations = static_cast<int>(
+      args.integer("refine-max", config.filter.refine_max_evaluations, 0, 10'000'000));
   std::cout << runHandExperiment(config).dump(2) << "\n";
   return 0;
 }
