@@ -388,6 +388,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"injection", options.injection_share},
       {"inject", options.injection == FilterOptions::Injection::kSegment ? "segment" : "dof"},
       {"refine", refined ? options.refine_share : 0.0},
+      {"refine_max", refined ? options.refine_max_evaluations : 0},
       {"refine_hold", refined && options.refine_hold},
       {"refine_plant", refined && options.refine_plant},
       {"refine_swap", refined && options.refine_swap},
@@ -472,6 +473,8 @@ int runHumanCommand(int argc, char** argv) {
       static_cast<int>(args.integer("layers", config.filter.annealing_layers, 1, 100));
   if (args.has("lookahead")) config.filter.lookahead = parseLookahead(args.text("lookahead", ""));
   config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
+  config.filter.refine_max_evaluations = static_cast<int>(
+      args.integer("refine-max", config.filter.refine_max_evaluations, 0, 10'000'000));
   config.filter.refine_step = args.real("refine-step", config.filter.refine_step, 0.0, 100.0);
   config.filter.refine_restart_share =
       args.real("refine-restarts", config.filter.refine_restart_share, 0.0, 1.0);
