@@ -54,7 +54,8 @@ struct FilterOptions {
   // standing where they were a frame ago; this corrects what that greedy order got wrong.
   double refine_share = 0;
   // factored, with a refinement: at most this many of its evaluations per frame (0: all the
-  // layers leave), for a step that must fit a time budget; the rest of the budget goes unspent.
+  // layers leave; 1 counts as 2, the starting pose and one trial), for a step that must fit a
+  // time budget; the rest of the budget goes unspent.
   int refine_max_evaluations = 0;
   double refine_step = 0.5;  // the pattern search's first step, in speed limits of each DOF
   // factored, with a refinement: a rotation DOF whose segment has ball-joint children (three
