@@ -258,8 +258,9 @@ double silhouetteFit(const PixelCounts& counts, const std::vector<SilhouetteMask
   long silhouette = 0;
   for (const SilhouetteMask& mask : masks) silhouette += mask.total();
   if (silhouette == 0) return -1;
-  return std::max(static_cast<double>(counts.matched - counts.outside) / static_cast<double>(silhouette),
-                  -1.0);
+  const double fit =
+      static_cast<double>(counts.matched - counts.outside) / static_cast<double>(silhouette);
+  return std::max(fit, -1.0);
 }
 
 std::vector<Eigen::VectorXd> acquisitionStances(const BodyModel& model) {

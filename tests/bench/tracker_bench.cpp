@@ -67,8 +67,7 @@ void filterStep(benchmark::State& state, const char* method, double refine_share
 }
 
 void BM_FactoredStep375(benchmark::State& state) { filterStep(state, "factored"); }
-// With the full-body refinement taking a fifth of the budget (`mocap-experiment hand --refine
-// 0.2`).
+// With the full-body refinement taking a fifth of the budget (`hand --refine 0.2`).
 void BM_FactoredStep375Refined(benchmark::State& state) { filterStep(state, "factored", 0.2); }
 // The same with the refinement capped at 30 evaluations (`--refine 0.2 --refine-max 30`): the
 // configuration that meets both the accuracy and the 1 ms targets (docs/hand.md).

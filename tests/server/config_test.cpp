@@ -241,7 +241,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {lookahead: ahead}\n",
        "tracker.lookahead: expected none, root, subtree or body, got 'ahead'"},
       {cameras + "tracker: {refine: 1.5}\n", "tracker.refine: must be between 0 and 0.99"},
-      {cameras + "tracker: {refine_max: -1}\n", "tracker.refine_max"},
+      {cameras + "tracker: {refine_max: -1}\n", "tracker.refine_max: must be between 0 and"},
       {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
       {cameras + "tracker: {refine_plant: 2}\n", "tracker.refine_plant"},
       {cameras + "tracker: {refine_swap: yes please}\n",

@@ -17,14 +17,19 @@ namespace {
 
 const std::string kWalk = std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh";
 
-TEST(HumanExperiment, PerLimbErrorsPointAtTheMisplacedArm) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+// The walk's first `frames` frames in the experiment's 2 cameras, on one thread.
+HumanExperimentConfig walk(int frames) {
   HumanExperimentConfig config;
   config.motion_path = kWalk;
-  config.frames = 1;
-  config.evaluations = 200;  // one frame cannot bring a 60-degree arm back (20-degree speed limit)
-  config.cameras = 2;
+  config.frames = frames;
   config.threads = 1;
+  return config;
+}
+
+TEST(HumanExperiment, PerLimbErrorsPointAtTheMisplacedArm) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config = walk(1);
+  config.evaluations = 200;  // one frame cannot bring a 60-degree arm back (20-degree speed limit)
   config.start_offset = "arm60";
   const nlohmann::json out = runHumanExperiment(config);
   const nlohmann::json& limb = out["per_limb_mm"];
@@ -39,11 +44,7 @@ TEST(HumanExperiment, PerLimbErrorsPointAtTheMisplacedArm) {
 
 // Two frames of the walk, 2 cameras, the tracker started with the body 30 cm off.
 HumanExperimentConfig bodyOffTwoFrames() {
-  HumanExperimentConfig config;
-  config.motion_path = kWalk;
-  config.frames = 2;
-  config.cameras = 2;
-  config.threads = 1;
+  HumanExperimentConfig config = walk(2);
   config.start_offset = "body30cm";
   return config;
 }
@@ -94,11 +95,7 @@ TEST(HumanExperiment, LostFramesOfABodyOffAreSearchFailures) {
 // evaluations of every hypothesis it tries. --start-frame starts the scene later in the motion.
 TEST(HumanExperiment, AcquireFindsTheBodyFromAnyStartFrame) {
   if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
-  HumanExperimentConfig config;
-  config.motion_path = kWalk;
-  config.frames = 2;
-  config.cameras = 2;
-  config.threads = 1;
+  HumanExperimentConfig config = walk(2);
   config.evaluations = 300;
   config.start_offset = "acquire";
   config.start_frame = 40;
@@ -120,10 +117,7 @@ TEST(HumanExperiment, AcquireFindsTheBodyFromAnyStartFrame) {
 // them, gives no pose while nothing is seen, and finds the subject on return.
 TEST(HumanExperiment, ASubjectOutOfViewIsLostAndFoundAgain) {
   if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
-  HumanExperimentConfig config;
-  config.motion_path = kWalk;
-  config.frames = 9;
-  config.threads = 1;
+  HumanExperimentConfig config = walk(9);
   config.evaluations = 300;
   config.dropout_at = 2;
   config.dropout_frames = 5;
@@ -162,20 +156,16 @@ TEST(HumanExperiment, BadOptionsAreNamed) {
   }
 }
 
-// --speed-scale changes the tracker's speed limits and not the truth's: the layers alone (no
-// refinement, no injection: every candidate within its speed limit of its parent) allowed a
-// twentieth of the subject's speed fall behind the walk, on the same ground truth.
-// The first frames of the walk in 2 cameras, tracked by the layers alone (no refinement).
+// The first frames of the walk tracked by the layers alone (no refinement).
 HumanExperimentConfig shortWalk(int frames) {
-  HumanExperimentConfig config;
-  config.motion_path = kWalk;
-  config.frames = frames;
-  config.cameras = 2;
-  config.threads = 1;
+  HumanExperimentConfig config = walk(frames);
   config.filter.refine_share = 0;
   return config;
 }
 
+// --speed-scale changes the tracker's speed limits and not the truth's: the layers alone (no
+// refinement, no injection: every candidate within its speed limit of its parent) allowed a
+// twentieth of the subject's speed fall behind the walk, on the same ground truth.
 TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
   if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
   HumanExperimentConfig config = shortWalk(25);
