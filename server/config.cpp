@@ -6,11 +6,15 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <iterator>
+#include <memory>
 #include <set>
 #include <sstream>
 
 #include <unistd.h>
 
+#include <openssl/pem.h>
+#include <openssl/x509.h>
 #include <yaml-cpp/yaml.h>
 
 #include "tracker/body_model.h"
@@ -34,6 +38,16 @@ std::optional<LogLevel> parseLogLevel(const std::string& name) {
 }
 
 namespace {
+
+using Bio = std::unique_ptr<BIO, decltype(&BIO_free)>;
+
+std::string asnTime(const ASN1_TIME* time) {
+  Bio out(BIO_new(BIO_s_mem()), BIO_free);
+  ASN1_TIME_print(out.get(), time);
+  char* text = nullptr;
+  const long length = BIO_get_mem_data(out.get(), &text);
+  return std::string(text, static_cast<std::size_t>(length));
+}
 
 class ConfigParser {
  public:
@@ -109,6 +123,43 @@ class ConfigParser {
     if (!std::filesystem::is_regular_file(path, error))
       fail(node, field, "no such file: " + path.string());
     return path.string();
+  }
+
+  // gRPC, given a certificate and key it cannot serve, only fails to bind, with no word of which
+  // file is wrong: they are read here first.
+  void checkTlsPair(const YAML::Node& tls, const std::string& cert_path,
+                    const std::string& key_path) const {
+    // No passphrase prompt: a daemon has no terminal to ask on, and must not wait for one.
+    auto no_passphrase = [](char*, int, int, void*) { return 0; };
+    Bio cert_file(BIO_new_file(cert_path.c_str(), "r"), BIO_free);
+    std::unique_ptr<X509, decltype(&X509_free)> cert(
+        cert_file ? PEM_read_bio_X509(cert_file.get(), nullptr, no_passphrase, nullptr) : nullptr,
+        X509_free);
+    if (!cert) fail(tls["cert"], "tls.cert", "no PEM certificate in " + cert_path);
+    Bio key_file(BIO_new_file(key_path.c_str(), "r"), BIO_free);
+    std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(
+        key_file ? PEM_read_bio_PrivateKey(key_file.get(), nullptr, no_passphrase, nullptr)
+                 : nullptr,
+        EVP_PKEY_free);
+    if (!key) {
+      std::ifstream in(key_path);
+      const std::string text((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
+      fail(tls["key"], "tls.key",
+           text.find("ENCRYPTED") != std::string::npos
+               ? key_path +
+                     " is encrypted, and the daemon cannot ask for its passphrase (decrypt "
+                     "it with openssl pkey, readable by the daemon's user only)"
+               : "no PEM private key in " + key_path);
+    }
+    if (X509_check_private_key(cert.get(), key.get()) != 1)
+      fail(tls["key"], "tls.key", key_path + " is not the key of the certificate " + cert_path);
+    if (X509_cmp_current_time(X509_get0_notAfter(cert.get())) < 0)
+      fail(tls["cert"], "tls.cert",
+           cert_path + " expired on " + asnTime(X509_get0_notAfter(cert.get())));
+    if (X509_cmp_current_time(X509_get0_notBefore(cert.get())) > 0)
+      fail(tls["cert"], "tls.cert",
+           cert_path + " is not valid before " + asnTime(X509_get0_notBefore(cert.get())));
   }
 
   std::filesystem::path resolve(const std::string& path) const {
@@ -353,6 +404,7 @@ class ConfigParser {
       if (!tls["cert"] || !tls["key"]) fail(tls, "tls", "needs both 'cert' and 'key'");
       config.tls_cert_file = existingFile(tls["cert"], "tls.cert");
       config.tls_key_file = existingFile(tls["key"], "tls.key");
+      checkTlsPair(tls, config.tls_cert_file, config.tls_key_file);
     }
 
     if (const YAML::Node auth = root["auth"]) {

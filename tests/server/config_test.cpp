@@ -5,11 +5,15 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <tuple>
 #include <utility>
+
+#include <unistd.h>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "server/tls_test_support.h"
 #include "tracker/experiments/human_experiment.h"
 
 namespace mocap {
@@ -281,6 +285,46 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
   };
   for (const auto& [yaml, expected] : cases)
     EXPECT_THAT(errorOf(yaml), HasSubstr(expected)) << yaml;
+}
+
+// gRPC given a certificate and key it cannot serve only fails to bind; the configuration names
+// the file and what is wrong with it instead, and does not wait for a passphrase.
+TEST(ConfigTest, ATlsCertificateAndKeyAreCheckedBeforeTheyAreServed) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("mocap_config_tls_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const test::TlsFiles good = test::writeSelfSignedCertificate(dir, "good");
+  const test::TlsFiles other = test::writeSelfSignedCertificate(dir, "other");
+  const test::TlsFiles expired = test::writeSelfSignedCertificate(dir, "expired", -3, -1);
+  const test::TlsFiles future = test::writeSelfSignedCertificate(dir, "future", 1, 3);
+  const test::TlsFiles locked = test::writeSelfSignedCertificate(dir, "locked", -1, 2, "secret");
+  const std::string not_pem = (dir / "notes.txt").string();
+  std::ofstream(not_pem) << "not a certificate\n";
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  auto tls = [&](const std::string& cert, const std::string& key) {
+    return cameras + "tls:\n  cert: " + cert + "\n  key: " + key + "\n";
+  };
+
+  const ServerConfig config = parseConfig(tls(good.cert, good.key), "test.yaml", ".");
+  EXPECT_EQ(config.tls_cert_file, good.cert);
+  EXPECT_EQ(config.tls_key_file, good.key);
+  // (certificate, key, what the error must say)
+  const std::tuple<std::string, std::string, std::string> cases[] = {
+      {not_pem, good.key, "test.yaml:4: tls.cert: no PEM certificate in " + not_pem},
+      {good.key, good.key, "tls.cert: no PEM certificate in " + good.key},
+      {good.cert, not_pem, "test.yaml:5: tls.key: no PEM private key in " + not_pem},
+      {good.cert, good.cert, "tls.key: no PEM private key in " + good.cert},
+      {good.cert, locked.key,
+       "tls.key: " + locked.key + " is encrypted, and the daemon cannot ask for its passphrase"},
+      {good.cert, other.key,
+       "tls.key: " + other.key + " is not the key of the certificate " + good.cert},
+      {expired.cert, expired.key, "tls.cert: " + expired.cert + " expired on "},
+      {future.cert, future.key, "tls.cert: " + future.cert + " is not valid before "},
+  };
+  for (const auto& [cert, key, expected] : cases)
+    EXPECT_THAT(errorOf(tls(cert, key)), HasSubstr(expected)) << cert << " " << key;
+  std::filesystem::remove_all(dir);
 }
 
 TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {

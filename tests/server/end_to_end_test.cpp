@@ -1,10 +1,11 @@
 // End to end on loopback, with the daemon in-process on the fake scene (2 cameras, 780x580,
 // 25 Hz): C++ and Python subscribers keep up with the frame rate while another subscriber never
-// reads; health; the bearer token; recording paths; replay determinism; background capture.
+// reads; health; the bearer token; TLS; recording paths; replay determinism; background capture.
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -15,8 +16,9 @@
 
 #include "drivers/builtin_drivers.h"
 #include "server/mocap_server.h"
-#include "tracker/builtin_models.h"
 #include "server/server_test_support.h"
+#include "server/tls_test_support.h"
+#include "tracker/builtin_models.h"
 
 namespace mocap {
 namespace {
@@ -36,12 +38,10 @@ std::unique_ptr<MocapServer> startServer(const ServerConfig& config) {
   return std::move(server.value());
 }
 
-std::string python(const std::string& args) {
-  const std::string command = "/usr/bin/python3 " MOCAP_SOURCE_DIR
-                              "/clients/python/mocap_client.py --stubs " MOCAP_PYTHON_STUBS " " +
-                              args + " 2>&1";
+// What a command printed, stdout and stderr together.
+std::string outputOf(const std::string& command) {
   std::string output;
-  FILE* pipe = popen(command.c_str(), "r");
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   if (!pipe) return "popen failed";
   char buffer[4096];
   while (fgets(buffer, sizeof buffer, pipe)) output += buffer;
@@ -49,8 +49,18 @@ std::string python(const std::string& args) {
   return output;
 }
 
+std::string python(const std::string& args) {
+  return outputOf("/usr/bin/python3 " MOCAP_SOURCE_DIR "/clients/python/mocap_client.py --stubs " +
+                  std::string(MOCAP_PYTHON_STUBS) + " " + args);
+}
+
+std::string mocapctl(const std::string& args) {
+  return outputOf(MOCAP_BIN_DIR "/mocapctl " + args);
+}
+
 fs::path freshDirectory(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("mocap_e2e_" + name + "_" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("mocap_e2e_" + name + "_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -78,7 +88,8 @@ TEST_F(EndToEndTest, SubscribersKeepUpWhileOneNeverReads) {
 
   std::string python_output;
   std::thread python_client([&] {
-    python_output = python("stream --server " + address + " --count " + std::to_string(kWindowFrames));
+    python_output =
+        python("stream --server " + address + " --count " + std::to_string(kWindowFrames));
   });
   cpp_client.startCounting();
   std::this_thread::sleep_for(std::chrono::seconds(kWindowSeconds));
@@ -156,12 +167,14 @@ TEST_F(EndToEndTest, TokenIsRequiredOnEveryCall) {
   v1::Status status;
   {
     grpc::ClientContext context;
-    EXPECT_EQ(stub->GetStatus(&context, {}, &status).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+    EXPECT_EQ(stub->GetStatus(&context, {}, &status).error_code(),
+              grpc::StatusCode::UNAUTHENTICATED);
   }
   {
     grpc::ClientContext context;
     context.AddMetadata("authorization", "Bearer 0123456789abcdef-wrong!");
-    EXPECT_EQ(stub->GetStatus(&context, {}, &status).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+    EXPECT_EQ(stub->GetStatus(&context, {}, &status).error_code(),
+              grpc::StatusCode::UNAUTHENTICATED);
   }
   {
     grpc::ClientContext context;
@@ -179,6 +192,55 @@ TEST_F(EndToEndTest, TokenIsRequiredOnEveryCall) {
   EXPECT_THAT(python("status --server " + address), ::testing::HasSubstr("UNAUTHENTICATED"));
   EXPECT_THAT(python("status --server " + address + " --token " + config.bearer_token),
               ::testing::HasSubstr("\"mode\": \"live\""));
+}
+
+// With a certificate and key configured, the daemon serves TLS only: clients that trust the
+// certificate (C++, mocapctl, Python) get status and poses; a plain-text client, or one trusting
+// another certificate, is refused rather than served in the clear.
+TEST_F(EndToEndTest, ServesTlsToClientsThatTrustItsCertificateOnly) {
+  const fs::path dir = freshDirectory("tls");
+  const test::TlsFiles daemon = test::writeSelfSignedCertificate(dir, "daemon");
+  const test::TlsFiles stranger = test::writeSelfSignedCertificate(dir, "stranger");
+  ServerConfig config = test::sceneConfig();
+  config.tls_cert_file = daemon.cert;
+  config.tls_key_file = daemon.key;
+  std::unique_ptr<MocapServer> server = startServer(config);
+  ASSERT_TRUE(server);
+  const std::string address = "127.0.0.1:" + std::to_string(server->port());
+  auto channel = [&](const test::TlsFiles* trusted) {
+    if (!trusted) return grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+    std::ifstream in(trusted->cert);
+    grpc::SslCredentialsOptions tls;
+    tls.pem_root_certs.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    return grpc::CreateChannel(address, grpc::SslCredentials(tls));
+  };
+  auto statusCode = [&](const test::TlsFiles* trusted) {
+    auto stub = v1::MocapService::NewStub(channel(trusted));
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    v1::Status status;
+    return stub->GetStatus(&context, {}, &status).error_code();
+  };
+  EXPECT_EQ(statusCode(&daemon), grpc::StatusCode::OK);
+  EXPECT_EQ(statusCode(nullptr), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_EQ(statusCode(&stranger), grpc::StatusCode::UNAVAILABLE);
+
+  auto stub = v1::MocapService::NewStub(channel(&daemon));
+  grpc::ClientContext stream_context;
+  auto reader = stub->StreamPoses(&stream_context, v1::StreamPosesRequest());
+  v1::Pose pose;
+  EXPECT_TRUE(reader->Read(&pose));
+  EXPECT_GT(pose.dofs_size(), 0);
+  stream_context.TryCancel();
+
+  EXPECT_THAT(mocapctl("status --server " + address + " --tls-ca " + daemon.cert),
+              ::testing::HasSubstr("\"mode\": \"live\""));
+  EXPECT_THAT(mocapctl("status --server " + address), ::testing::HasSubstr("UNAVAILABLE"));
+  EXPECT_THAT(python("status --server " + address + " --tls-ca " + daemon.cert),
+              ::testing::HasSubstr("\"mode\": \"live\""));
+  EXPECT_THAT(python("status --server " + address + " --tls-ca " + stranger.cert),
+              ::testing::HasSubstr("UNAVAILABLE"));
+  fs::remove_all(dir);
 }
 
 grpc::StatusCode startRecording(v1::MocapService::Stub& stub, const std::string& path) {
@@ -443,8 +505,8 @@ TEST_F(EndToEndTest, ReacquireFindsThePersonAgainOrSaysWhyNot) {
 // the hand the fake scene brings, and the person fitted to a scene motion.
 TEST_F(EndToEndTest, TracksWithSpeedLimitsPerFrameAtTheCamerasRate) {
   const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
-  for (const auto& [body, motion] : {std::pair<std::string, std::string>{"builtin:human", ""},
-                                     {"", ""}, {"", walk}}) {
+  for (const auto& [body, motion] :
+       {std::pair<std::string, std::string>{"builtin:human", ""}, {"", ""}, {"", walk}}) {
     SCOPED_TRACE(body + " " + motion);
     ServerConfig config = test::sceneConfig();
     config.body_model = body;
@@ -453,7 +515,8 @@ TEST_F(EndToEndTest, TracksWithSpeedLimitsPerFrameAtTheCamerasRate) {
     Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
     ASSERT_TRUE(server.ok()) << server.error();
     const BodyModel& tracked = server.value()->model();
-    const BodyModel file = body.empty() && motion.empty() ? builtinHandModel() : builtinHumanModel();
+    const BodyModel file =
+        body.empty() && motion.empty() ? builtinHandModel() : builtinHumanModel();
     EXPECT_EQ(file.frame_rate, 25);
     EXPECT_EQ(tracked.frame_rate, 50);
     ASSERT_EQ(tracked.dofs.size(), file.dofs.size());
@@ -492,7 +555,8 @@ TEST_F(EndToEndTest, TracksTheGaitDofsWhenTheConfigurationSaysSo) {
   hand.tracker.dofs = "gait";
   Expected<std::unique_ptr<MocapServer>> refused = MocapServer::create(hand);
   ASSERT_FALSE(refused.ok());
-  EXPECT_THAT(refused.error(), ::testing::HasSubstr("tracker.dofs: gait, but the body model 'hand'"));
+  EXPECT_THAT(refused.error(),
+              ::testing::HasSubstr("tracker.dofs: gait, but the body model 'hand'"));
 }
 
 // Live, a tracker whose refinement cannot fit in a frame period gives it up when the next frame
