@@ -80,13 +80,21 @@ class ConfigParser {
     return parent.empty() ? key : parent + "." + key;
   }
 
+  // What a value that is not a scalar is, for the error that refuses it.
+  static std::string kindOf(const YAML::Node& node) {
+    if (node.IsSequence()) return "a list";
+    if (node.IsMap()) return "a map";
+    return node.IsNull() ? "nothing" : "'" + node.Scalar() + "'";
+  }
+
   std::string text(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar() || node.Scalar().empty()) fail(node, field, "expected a non-empty string");
+    if (!node.IsScalar() || node.Scalar().empty())
+      fail(node, field, "expected a non-empty string, got " + kindOf(node));
     return node.Scalar();
   }
 
   double number(const YAML::Node& node, const std::string& field, double min, double max) const {
-    if (!node.IsScalar()) fail(node, field, "expected a number");
+    if (!node.IsScalar()) fail(node, field, "expected a number, got " + kindOf(node));
     double value = 0;
     try {
       value = node.as<double>();

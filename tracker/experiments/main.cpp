@@ -1,5 +1,5 @@
-// mocap-experiment: the reproducible experiments of mocapd, each printing one JSON object on stdout.
-// Each experiment lives in its own file and is listed once in kExperiments below.
+// mocap-experiment: the reproducible experiments of mocapd, each printing one JSON object on
+// stdout. Each experiment lives in its own file and is listed once in kExperiments below.
 #include <iostream>
 #include <string>
 
@@ -36,6 +36,13 @@ int main(int argc, char** argv) {
   const std::string name = argv[1];
   for (const Experiment& e : kExperiments) {
     if (name != e.name) continue;
+    for (int i = 2; i < argc; ++i) {
+      const std::string flag = argv[i];
+      if (flag == "--help" || flag == "-h") {
+        std::cout << "usage: mocap-experiment " << e.usage << "\n";
+        return 0;
+      }
+    }
     try {
       return e.run(argc, argv);
     } catch (const std::exception& error) {
