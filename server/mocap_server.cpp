@@ -104,14 +104,17 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       camera.config.height = recorded.height;
       camera.config.fps = recorded.fps > 0 ? recorded.fps : 25.0;
       camera.config.pixel_format = recorded.pixel_format;
-      camera.info = {"replay", recorded.name, "recorded session camera",
+      camera.info = {"replay",
+                     recorded.name,
+                     "recorded session camera",
                      {{recorded.width, recorded.height, recorded.fps, recorded.pixel_format}}};
       inputs.cameras.push_back(std::move(camera));
     }
     if (!server->rig_) {
       if (session->rig().empty())
-        return Status::Error("replay: the session has no calibration and the configuration "
-                             "names no calibration file");
+        return Status::Error(
+            "replay: the session has no calibration and the configuration "
+            "names no calibration file");
       server->rig_ = std::make_unique<Rig>(session->rig());
     }
     // The body the session was tracked with, unless the configuration names one; sessions that
@@ -130,8 +133,8 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
     // sets itself. Sessions that store none take the configuration's.
     if (!session->trackerSettings().empty()) {
       try {
-        server->config_.tracker = replayTrackerSettings(
-            config, session->trackerSettings(), (session->path() / kManifestFile).string());
+        server->config_.tracker = replayTrackerSettings(config, session->trackerSettings(),
+                                                        (session->path() / kManifestFile).string());
       } catch (const ConfigError& e) {
         return Status::Error(std::string("replay: ") + e.what());
       }
@@ -144,7 +147,8 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       all_fake = all_fake && isFakeScene(camera);
     }
     if (any_fake && !all_fake)
-      return Status::Error(config.source + ": cameras: the fake scene cannot be mixed with real cameras");
+      return Status::Error(config.source +
+                           ": cameras: the fake scene cannot be mixed with real cameras");
     if (any_fake) {
       FakeDriver driver(
           fakeDriverOptions(config, server->model_.get(), server->rig_.get(), scene_motion));
@@ -159,8 +163,8 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       for (const CameraConfig& camera_config : config.cameras) {
         Expected<std::unique_ptr<Camera>> opened = driver.open(camera_config);
         if (!opened.ok()) {
-          return Status::Error("cameras[" + std::to_string(camera_config.index) +
-                               "] (fake " + camera_config.device + "): " + opened.error());
+          return Status::Error("cameras[" + std::to_string(camera_config.index) + "] (fake " +
+                               camera_config.device + "): " + opened.error());
         }
         OpenedCamera camera;
         camera.config = camera_config;
@@ -175,7 +179,9 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
           return shared->groundTruth(sequence).silhouettes;
         };
       }
-      inputs.reference_pose = [shared](uint64_t sequence) { return shared->groundTruth(sequence).q; };
+      inputs.reference_pose = [shared](uint64_t sequence) {
+        return shared->groundTruth(sequence).q;
+      };
       // The subject's starting pose, as a real session would give it by a start-up pose.
       inputs.initial_pose = shared->groundTruth(0).q;
     } else {
@@ -185,8 +191,9 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
         return Status::Error(config.source + ": calibration: required with real cameras");
       for (const CameraConfig& camera_config : config.cameras) {
         std::unique_ptr<Driver> driver = DriverRegistry::instance().create(camera_config.driver);
-        if (!driver) return Status::Error("cameras[" + std::to_string(camera_config.index) +
-                                          "]: no driver '" + camera_config.driver + "'");
+        if (!driver)
+          return Status::Error("cameras[" + std::to_string(camera_config.index) + "]: no driver '" +
+                               camera_config.driver + "'");
         Expected<std::unique_ptr<Camera>> opened = driver->open(camera_config);
         if (!opened.ok()) {
           return Status::Error("cameras[" + std::to_string(camera_config.index) + "] (" +
@@ -207,11 +214,11 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
   if (server->config_.tracker.dofs == "gait") {
     BodyModel& model = *server->model_;
     if (model.gait_dofs.empty())
-      return Status::Error(config.source + ": tracker.dofs: gait, but the body model '" + model.name +
-                           "' names no gait_dofs");
-    const Eigen::VectorXd hold =
-        inputs.initial_pose.size() == static_cast<long>(model.dofs.size()) ? inputs.initial_pose
-                                                                           : model.neutralPose();
+      return Status::Error(config.source + ": tracker.dofs: gait, but the body model '" +
+                           model.name + "' names no gait_dofs");
+    const Eigen::VectorXd hold = inputs.initial_pose.size() == static_cast<long>(model.dofs.size())
+                                     ? inputs.initial_pose
+                                     : model.neutralPose();
     model = freezeAllBut(model, model.gait_dofs, hold);
   }
   // tracker.start (config.h): the scene's true first pose, the subject found in the silhouettes,
@@ -226,9 +233,8 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       start == "acquire" || (start == "auto" && inputs.initial_pose.size() == 0 && placeable);
 
   try {
-    server->pipeline_ = std::make_unique<Pipeline>(server->config_, *server->model_,
-                                                   *server->rig_, std::move(inputs),
-                                                   server->publisher_);
+    server->pipeline_ = std::make_unique<Pipeline>(server->config_, *server->model_, *server->rig_,
+                                                   std::move(inputs), server->publisher_);
   } catch (const std::exception& e) {
     return Status::Error(e.what());
   }

@@ -76,10 +76,11 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
 
   SyncConfig sync;
   sync.camera_count = static_cast<int>(cameras_.size());
-  sync.frame_period = std::chrono::nanoseconds(
-      static_cast<int64_t>(1e9 / cameras_.front().config.fps));
+  sync.frame_period =
+      std::chrono::nanoseconds(static_cast<int64_t>(1e9 / cameras_.front().config.fps));
   if (config.sync.tolerance_ms)
-    sync.tolerance = std::chrono::nanoseconds(static_cast<int64_t>(*config.sync.tolerance_ms * 1e6));
+    sync.tolerance =
+        std::chrono::nanoseconds(static_cast<int64_t>(*config.sync.tolerance_ms * 1e6));
   if (config.sync.deadline_ms)
     sync.deadline = std::chrono::nanoseconds(static_cast<int64_t>(*config.sync.deadline_ms * 1e6));
   sync.mode = replay_ ? SyncMode::kReplay : SyncMode::kLive;
@@ -99,9 +100,9 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
     AcquiringOptions acquiring_options;
     acquiring_options.lost_below = config.tracker.lost_below;
     acquiring_options.lost_after = config.tracker.lost_after;
-    auto acquiring = std::make_unique<AcquiringFilter>(model_, rig_, acquisitionStances(model_),
-                                                       options.likelihood, makeTrackerFilter,
-                                                       acquiring_options);
+    auto acquiring =
+        std::make_unique<AcquiringFilter>(model_, rig_, acquisitionStances(model_),
+                                          options.likelihood, makeTrackerFilter, acquiring_options);
     acquiring_ = acquiring.get();
     filter_ = std::move(acquiring);
   } else {
@@ -287,8 +288,7 @@ SilhouetteMask Pipeline::thresholdMask(const cv::Mat& image) {
   return SilhouetteMask(binary);
 }
 
-void Pipeline::captureBackground(int frames,
-                                 std::function<void(const BackgroundResult&)> done) {
+void Pipeline::captureBackground(int frames, std::function<void(const BackgroundResult&)> done) {
   if (replay_) {
     // Replay must give the same poses every run, from the recorded frames alone.
     done({BackgroundError::kReplay, "background capture needs live cameras, not a replay", 0});
@@ -435,8 +435,8 @@ void Pipeline::maskLoop() {
       if (image.cols != rig_[c].width || image.rows != rig_[c].height || image.depth() != CV_8U) {
         if (!size_warned[c]) {
           logWarning() << "camera " << c << " delivers " << image.cols << "x" << image.rows
-                       << " images but is calibrated for " << rig_[c].width << "x"
-                       << rig_[c].height << "; its frames are ignored";
+                       << " images but is calibrated for " << rig_[c].width << "x" << rig_[c].height
+                       << "; its frames are ignored";
           size_warned[c] = true;
         }
         continue;
@@ -558,7 +558,8 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   RecordingResult result;
   if (config_.recording_directory.empty()) {
     return {RecordingError::kNotConfigured,
-            "recording is off: the configuration has no recording_directory", {}};
+            "recording is off: the configuration has no recording_directory",
+            {}};
   }
   const std::filesystem::path requested(relative_path);
   for (const std::filesystem::path& part : requested) {
@@ -567,7 +568,8 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   }
   if (requested.is_absolute())
     return {RecordingError::kBadPath,
-            "the session path must be relative to the recording directory", {}};
+            "the session path must be relative to the recording directory",
+            {}};
   const Expected<std::filesystem::path> inside =
       resolveInsideRoot(config_.recording_directory, requested);
   if (!inside.ok()) return {RecordingError::kOutsideRoot, inside.error(), {}};
@@ -577,11 +579,11 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   std::vector<SessionCamera> cameras;
   {
     std::lock_guard lock(recording_mutex_);
-    if (recorder_)
-      return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
+    if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
     for (std::size_t c = 0; c < cameras_.size(); ++c) {
       if (camera_cv_types_[c] < 0)
-        return {RecordingError::kBusy, "camera " + std::to_string(c) + " has sent no frame yet", {}};
+        return {
+            RecordingError::kBusy, "camera " + std::to_string(c) + " has sent no frame yet", {}};
       SessionCamera camera;
       camera.name = cameras_[c].info.id;
       camera.width = cameras_[c].config.width;
@@ -593,7 +595,8 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   }
   // Opening writes files: done outside the lock so the mask thread never waits on the disk.
   auto recorder = std::make_unique<Recorder>(config_.recording_directory);
-  const Status opened = recorder->open(requested, rig_, cameras, {&model_, config_.tracker.keyValues()});
+  const Status opened =
+      recorder->open(requested, rig_, cameras, {&model_, config_.tracker.keyValues()});
   if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
   std::lock_guard lock(recording_mutex_);
   if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
@@ -610,7 +613,8 @@ RecordingResult Pipeline::stopRecording() {
   RecordingStatus final_status;
   {
     std::lock_guard lock(recording_mutex_);
-    if (!recorder_) return {RecordingError::kNotRecording, "no recording is running", last_recording_};
+    if (!recorder_)
+      return {RecordingError::kNotRecording, "no recording is running", last_recording_};
     final_status = recordingStatusLocked();
     recorder = std::move(recorder_);
   }

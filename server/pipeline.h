@@ -106,7 +106,15 @@ struct PipelineStatus {
 };
 
 // Why a recording request failed, so the service can pick the gRPC code.
-enum class RecordingError { kNone, kBadPath, kOutsideRoot, kNotConfigured, kBusy, kNotRecording, kIo };
+enum class RecordingError {
+  kNone,
+  kBadPath,
+  kOutsideRoot,
+  kNotConfigured,
+  kBusy,
+  kNotRecording,
+  kIo
+};
 struct RecordingResult {
   RecordingError error = RecordingError::kNone;
   std::string message;

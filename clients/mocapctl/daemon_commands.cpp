@@ -138,8 +138,7 @@ int runStream(int argc, char** argv) {
     line["publish_monotonic_ns"] = pose.publish_monotonic_ns();
     nlohmann::json positions = nlohmann::json::object();
     for (const mocap::v1::JointPosition& joint : pose.joints()) {
-      positions[joint.name()] = {joint.position().x(), joint.position().y(),
-                                 joint.position().z()};
+      positions[joint.name()] = {joint.position().x(), joint.position().y(), joint.position().z()};
     }
     line["joints"] = positions;
     line["dofs"] = std::vector<double>(pose.dofs().begin(), pose.dofs().end());
@@ -219,7 +218,8 @@ int runBvh(int argc, char** argv) {
   DaemonFlags flags;
   std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
   const std::string seconds_text = takeFlag(args, "--seconds");
-  if (args.size() != 1) throw std::runtime_error("expected one output file: bvh OUT.bvh --seconds N");
+  if (args.size() != 1)
+    throw std::runtime_error("expected one output file: bvh OUT.bvh --seconds N");
   if (seconds_text.empty()) throw std::runtime_error("--seconds N is required");
   const long seconds = positiveNumber("--seconds", seconds_text);
   const std::string out_path = args.front();
@@ -247,19 +247,21 @@ int runBvh(int argc, char** argv) {
     frames.emplace_back(pose.dofs().begin(), pose.dofs().end());
     if (Clock::now() - last_progress >= std::chrono::seconds(1)) {
       last_progress = Clock::now();
-      progress("bvh: " + std::to_string(std::chrono::duration_cast<std::chrono::seconds>(
-                                            last_progress - start).count()) +
-               "/" + std::to_string(seconds) + " s, " + std::to_string(frames.size()) + " poses");
+      progress(
+          "bvh: " +
+          std::to_string(
+              std::chrono::duration_cast<std::chrono::seconds>(last_progress - start).count()) +
+          "/" + std::to_string(seconds) + " s, " + std::to_string(frames.size()) + " poses");
     }
   }
   const grpc::Status status = reader->Finish();
   if (status.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED) check(status, "StreamPoses");
   if (frames.empty()) throw std::runtime_error("no pose arrived in " + seconds_text + " s");
   // The frame time is the mean capture interval, so the clip plays at the captured pace.
-  const double frame_time =
-      frames.size() > 1 ? static_cast<double>(last_capture - first_capture) / 1e9 /
-                              static_cast<double>(frames.size() - 1 + missed)
-                        : 0.04;
+  const double frame_time = frames.size() > 1
+                                ? static_cast<double>(last_capture - first_capture) / 1e9 /
+                                      static_cast<double>(frames.size() - 1 + missed)
+                                : 0.04;
   std::ofstream out(out_path);
   if (!out) throw std::runtime_error(out_path + ": cannot write");
   writeBvh(out, skeleton, frames, frame_time);
@@ -295,7 +297,8 @@ int runBench(int argc, char** argv) {
   uint64_t missed = 0, last_frame = first_frame;
   while (Clock::now() < end && reader->Read(&pose)) {
     // Same host, same CLOCK_MONOTONIC: arrival minus exposure is the whole capture-to-wire path.
-    latencies_ms.push_back(static_cast<double>(monotonicNowNs() - pose.capture_monotonic_ns()) / 1e6);
+    latencies_ms.push_back(static_cast<double>(monotonicNowNs() - pose.capture_monotonic_ns()) /
+                           1e6);
     if (pose.has_reference_error_mm()) errors_mm.push_back(pose.reference_error_mm());
     missed += pose.missed_before();
     last_frame = pose.frame_sequence();
@@ -320,9 +323,10 @@ int runBench(int argc, char** argv) {
       {"poses_per_second", static_cast<double>(latencies_ms.size()) / elapsed},
       {"frame_sets_spanned", last_frame - first_frame},
       {"missed_by_this_client", missed},
-      {"latency_ms", {{"p50", percentile(latencies_ms, 0.5)},
-                      {"p99", percentile(latencies_ms, 0.99)},
-                      {"max", latencies_ms.back()}}},
+      {"latency_ms",
+       {{"p50", percentile(latencies_ms, 0.5)},
+        {"p99", percentile(latencies_ms, 0.99)},
+        {"max", latencies_ms.back()}}},
   };
   // A source that knows the truth (the fake scene): how far the poses were from it.
   if (!errors_mm.empty()) {

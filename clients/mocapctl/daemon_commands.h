@@ -8,12 +8,14 @@ inline constexpr const char* kStreamUsage =
     "stream [--joints a,b,...] [--count N] [--summary]   poses as JSON lines, one a line\n"
     "                         (--summary: one short line a pose, with the error vs the truth)";
 inline constexpr const char* kStatusUsage = "status                   the daemon's status as JSON";
-inline constexpr const char* kSkeletonUsage = "skeleton                 the tracked skeleton as JSON";
+inline constexpr const char* kSkeletonUsage =
+    "skeleton                 the tracked skeleton as JSON";
 inline constexpr const char* kRecordUsage =
     "record start [PATH] | record stop   (PATH relative to the daemon's recording directory)";
 inline constexpr const char* kReacquireUsage =
     "reacquire                the tracker finds the subject again (poses resume once found)";
-inline constexpr const char* kBvhUsage = "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
+inline constexpr const char* kBvhUsage =
+    "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
 inline constexpr const char* kBenchUsage =
     "bench [--seconds N]      capture-to-pose-on-the-wire latency, sustained pose rate and,\n"
     "                         from the fake scene, the poses' error against the truth";

@@ -26,7 +26,7 @@ double unitInterval(uint64_t bits) { return static_cast<double>(bits >> 11) * 0x
 
 // Far from the background's mid-range texture, and alternating light/dark so neighbouring
 // segments stay apart.
-const cv::Vec3b kSegmentPalette[] = {{30, 30, 235}, {30, 215, 30},  {235, 90, 20},
+const cv::Vec3b kSegmentPalette[] = {{30, 30, 235},  {30, 215, 30},  {235, 90, 20},
                                      {20, 225, 245}, {225, 30, 225}, {245, 225, 30}};
 const uint8_t kSegmentGrays[] = {250, 8, 240, 18, 230, 28};
 
@@ -36,7 +36,8 @@ double modelExtent(const BodyModel& model) {
   forwardKinematics(model, data, model.neutralPose());
   double extent = 0;
   for (const Eigen::Isometry3d& a : data.world) {
-    for (const Eigen::Isometry3d& b : data.world) extent = std::max(extent, (a.translation() - b.translation()).norm());
+    for (const Eigen::Isometry3d& b : data.world)
+      extent = std::max(extent, (a.translation() - b.translation()).norm());
   }
   double largest_shape = 0;
   for (const Segment& s : model.segments) {
@@ -47,13 +48,16 @@ double modelExtent(const BodyModel& model) {
 
 }  // namespace
 
-Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width, int height) {
+Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width,
+                   int height) {
   return modelExtent(model) > 0.5 ? labRig(cameras, model, motion, width, height)
                                   : handRig(cameras, width, height);
 }
 
 FakeRenderScratch::FakeRenderScratch(const BodyModel& model, int max_rows)
-    : kinematics(model), rasterizer(kSimulatorPointsPerCircle), spans(static_cast<std::size_t>(max_rows)) {}
+    : kinematics(model),
+      rasterizer(kSimulatorPointsPerCircle),
+      spans(static_cast<std::size_t>(max_rows)) {}
 
 FakeScene::FakeScene(FakeSceneOptions options) : options_(std::move(options)) {}
 
@@ -68,7 +72,8 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
   try {
     scene->model_ = o.model ? o.model : std::make_shared<const BodyModel>(builtinHandModel());
     scene->motion_ = o.motion ? o.motion
-                              : std::make_shared<const Motion>(generateMotion(*scene->model_, o.generated_frames, o.seed));
+                              : std::make_shared<const Motion>(
+                                    generateMotion(*scene->model_, o.generated_frames, o.seed));
     if (scene->motion_->empty()) return Status::Error("fake scene: the motion has no frames");
     const Eigen::Index dofs = static_cast<Eigen::Index>(scene->model_->dofs.size());
     for (std::size_t f = 0; f < scene->motion_->size(); ++f) {
@@ -99,7 +104,8 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
     // Smooth blotches with a finer blocky texture on top: a background a silhouette extractor has
     // to learn, never flat.
     cv::RNG rng(splitmix64(o.seed * 7919 + c));
-    cv::Mat coarse(10, 13, CV_8UC3), fine(std::max(1, cam.height / 8), std::max(1, cam.width / 8), CV_8UC3);
+    cv::Mat coarse(10, 13, CV_8UC3),
+        fine(std::max(1, cam.height / 8), std::max(1, cam.width / 8), CV_8UC3);
     rng.fill(coarse, cv::RNG::UNIFORM, 70, 190);
     rng.fill(fine, cv::RNG::UNIFORM, 0, 40);
     cv::Mat smooth, blocks, background;
@@ -148,7 +154,8 @@ GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
   return truth;
 }
 
-void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch, cv::Mat& image) const {
+void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch,
+                       cv::Mat& image) const {
   const CameraModel& cam = rig_[camera];
   forwardKinematics(*model_, scratch.kinematics, (*motion_)[motionFrame(sequence)]);
   backgrounds_[camera].copyTo(image);
@@ -161,8 +168,8 @@ void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch
   }
   std::sort(order.begin(), order.end());
   for (const auto& [depth, s] : order) {
-    const Footprint f = scratch.rasterizer.rasterize(model_->segments[s].shape, scratch.kinematics.world[s], cam,
-                                                     scratch.spans.data());
+    const Footprint f = scratch.rasterizer.rasterize(
+        model_->segments[s].shape, scratch.kinematics.world[s], cam, scratch.spans.data());
     if (options_.gray) {
       fillFootprint(image, f, kSegmentGrays[s % std::size(kSegmentGrays)]);
       continue;
@@ -182,30 +189,38 @@ void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch
   const std::size_t offset = hash(camera, sequence, 1) % kNoiseOffsets;
   cv::Mat flat = image.reshape(1, 1);
   // Read-only headers over the strips (cv::Mat has no const view).
-  const cv::Mat up(1, static_cast<int>(bytes), CV_8UC1, const_cast<uint8_t*>(noise_up_.data() + offset));
-  const cv::Mat down(1, static_cast<int>(bytes), CV_8UC1, const_cast<uint8_t*>(noise_down_.data() + offset));
+  const cv::Mat up(1, static_cast<int>(bytes), CV_8UC1,
+                   const_cast<uint8_t*>(noise_up_.data() + offset));
+  const cv::Mat down(1, static_cast<int>(bytes), CV_8UC1,
+                     const_cast<uint8_t*>(noise_down_.data() + offset));
   cv::add(flat, up, flat);
   cv::subtract(flat, down, flat);
 }
 
 uint64_t FakeScene::hash(int camera, uint64_t sequence, uint64_t salt) const {
-  return splitmix64(splitmix64(splitmix64(options_.seed ^ (salt << 56)) ^ static_cast<uint64_t>(camera)) ^ sequence);
+  return splitmix64(
+      splitmix64(splitmix64(options_.seed ^ (salt << 56)) ^ static_cast<uint64_t>(camera)) ^
+      sequence);
 }
 
 bool FakeScene::dropped(int camera, uint64_t sequence) const {
-  return options_.faults.drop_rate > 0 && unitInterval(hash(camera, sequence, 2)) < options_.faults.drop_rate;
+  return options_.faults.drop_rate > 0 &&
+         unitInterval(hash(camera, sequence, 2)) < options_.faults.drop_rate;
 }
 
 int64_t FakeScene::jitterNs(int camera, uint64_t sequence) const {
   // Capped so frames of one camera never swap order and sets still group within the tolerance.
-  const int64_t amplitude = std::min<int64_t>(options_.faults.timestamp_jitter.count(), period_ns_ / 3);
+  const int64_t amplitude =
+      std::min<int64_t>(options_.faults.timestamp_jitter.count(), period_ns_ / 3);
   if (amplitude <= 0) return 0;
-  return static_cast<int64_t>(std::llround((2 * unitInterval(hash(camera, sequence, 3)) - 1) * amplitude));
+  return static_cast<int64_t>(
+      std::llround((2 * unitInterval(hash(camera, sequence, 3)) - 1) * amplitude));
 }
 
 bool FakeScene::inOutage(const FakeOutage& outage, int camera, uint64_t sequence) const {
   if (outage.camera != camera || outage.duration.count() <= 0) return false;
-  const uint64_t frames = static_cast<uint64_t>((outage.duration.count() + period_ns_ - 1) / period_ns_);
+  const uint64_t frames =
+      static_cast<uint64_t>((outage.duration.count() + period_ns_ - 1) / period_ns_);
   return sequence >= outage.after_frames && sequence < outage.after_frames + frames;
 }
 

@@ -32,13 +32,14 @@ struct FakeOutage {
 // Fault knobs, all off by default. Deterministic for a given seed.
 struct FakeFaults {
   double drop_rate = 0;  // chance each frame is lost; the next one counts it in dropped_before
-  std::chrono::nanoseconds timestamp_jitter{0};  // uniform in +-jitter (capped at a third of a period)
+  std::chrono::nanoseconds timestamp_jitter{
+      0};                 // uniform in +-jitter (capped at a third of a period)
   FakeOutage stall;       // silent: frames just stop, then resume
   FakeOutage disconnect;  // reported through the event sink when it goes and when it comes back
 };
 
 enum class FakePacing {
-  kRealTime,          // each camera's thread delivers frame N at its exposure time on CLOCK_MONOTONIC
+  kRealTime,  // each camera's thread delivers frame N at its exposure time on CLOCK_MONOTONIC
   kAsFastAsPossible,  // no waiting; timestamps still advance by one period per frame
 };
 
@@ -67,13 +68,14 @@ struct FakeSceneOptions {
 // The rig used when none is given: for a body taller than half a metre the lab rig framed on the
 // motion's path (labRig in tracker/scene.h), otherwise one framed for a hand-sized model (the hand
 // experiment's rig), so the default scene fills the image.
-Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width, int height);
+Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width,
+                   int height);
 
 struct GroundTruth {
   uint64_t sequence = 0;
-  std::size_t motion_frame = 0;        // which frame of the motion was shown
-  Eigen::VectorXd q;                   // the DOF vector
-  std::vector<cv::Mat> silhouettes;    // per camera, CV_8UC1, 255 where the body is
+  std::size_t motion_frame = 0;      // which frame of the motion was shown
+  Eigen::VectorXd q;                 // the DOF vector
+  std::vector<cv::Mat> silhouettes;  // per camera, CV_8UC1, 255 where the body is
 };
 
 // Per-thread render scratch: one per camera thread.
@@ -101,7 +103,9 @@ class FakeScene {
   // Frame 0's exposure time (CLOCK_MONOTONIC ns), fixed by the first call: the cameras share it,
   // so frame N of every camera is the same instant and the same pose.
   int64_t epochNs();
-  int64_t exposureTimeNs(uint64_t sequence) { return epochNs() + static_cast<int64_t>(sequence) * period_ns_; }
+  int64_t exposureTimeNs(uint64_t sequence) {
+    return epochNs() + static_cast<int64_t>(sequence) * period_ns_;
+  }
   std::size_t motionFrame(uint64_t sequence) const;
 
   // The ground truth of frame `sequence`. Thread-safe (serialized); renders on each call.

@@ -9,8 +9,8 @@
 
 #include "drivers/builtin_drivers.h"
 #include "drivers/fake/fake_driver.h"
-#include "tracker/builtin_models.h"
 #include "tests/drivers/frame_collector.h"
+#include "tracker/builtin_models.h"
 
 namespace mocap {
 namespace {
@@ -223,7 +223,7 @@ TEST(FakeSceneCamera, StopReturnsPromptlyWhileWaitingForASlowFrame) {
   std::unique_ptr<Camera> camera = openCamera(driver, config);
   ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
   ASSERT_TRUE(collector.waitForFrames(1));  // frame 0 comes at once
-  camera->stop();                        // while waiting ten seconds for frame 1: wakes at once
+  camera->stop();                           // while waiting ten seconds for frame 1: wakes at once
   EXPECT_EQ(collector.frames().size(), 1u);
 }
 
