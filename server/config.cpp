@@ -308,10 +308,10 @@ class ConfigParser {
   ServerConfig parse(const YAML::Node& root) const {
     ServerConfig config;
     config.source = source_;
-    onlyKeys(
-        root, "",
-        {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "recording_directory",
-         "background_directory", "silhouettes", "tls", "auth", "log_level", "scene_motion"});
+    onlyKeys(root, "",
+             {"cameras", "calibration", "body_model", "tracker", "sync", "listen",
+              "recording_directory", "background_directory", "silhouettes", "tls", "auth",
+              "log_level", "scene_motion", "scene_empty_seconds"});
 
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
@@ -347,6 +347,15 @@ class ConfigParser {
       if (config.body_model == "builtin:hand")
         fail(root["body_model"], "body_model",
              "a scene_motion (BVH) drives a human body, not builtin:hand");
+    }
+
+    if (const YAML::Node empty = root["scene_empty_seconds"]) {
+      config.scene_empty_seconds = number(empty, "scene_empty_seconds", 0, 3600);
+      for (const CameraConfig& camera : config.cameras)
+        if (camera.driver != "fake")
+          fail(empty, "scene_empty_seconds",
+               "only the fake scene can be empty (cameras[" + std::to_string(camera.index) +
+                   "] is " + camera.driver + ")");
     }
 
     if (config.body_model == "builtin:human" || !config.scene_motion.empty() ||

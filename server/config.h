@@ -92,6 +92,9 @@ struct ServerConfig {
   // Fake scene only: a BVH file (CMU's skeleton) the scene plays, retargeted at the cameras' rate
   // onto the body model fitted to the recorded subject; the tracker tracks that fitted body.
   std::string scene_motion;
+  // The fake scene: seconds the cameras see the empty room before the subject walks in (time to
+  // capture the background, as before a real session).
+  double scene_empty_seconds = 0;
   TrackerSettings tracker;
   // The `tracker:` keys the file set itself, as written (a replay applies them over the session's).
   std::vector<std::pair<std::string, std::string>> tracker_keys;

@@ -46,6 +46,8 @@ FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel*
   if (model) options.scene.model = std::make_shared<const BodyModel>(*model);
   if (rig) options.scene.rig = *rig;
   options.scene.motion = std::move(motion);
+  options.scene.empty_frames =
+      static_cast<uint64_t>(std::llround(config.scene_empty_seconds * first.fps));
   return options;
 }
 
@@ -179,11 +181,9 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
           return shared->groundTruth(sequence).silhouettes;
         };
       }
-      inputs.reference_pose = [shared](uint64_t sequence) {
-        return shared->groundTruth(sequence).q;
-      };
-      // The subject's starting pose, as a real session would give it by a start-up pose.
-      inputs.initial_pose = shared->groundTruth(0).q;
+      inputs.reference_pose = [shared](uint64_t sequence) { return shared->truePose(sequence); };
+      // The subject's first pose in view, as a real session would give it by a start-up pose.
+      inputs.initial_pose = shared->truePose(shared->options().empty_frames);
     } else {
       if (!server->model_)
         return Status::Error(config.source + ": body_model: required with real cameras");

@@ -507,8 +507,10 @@ void Pipeline::trackerLoop() {
     pose->score = estimate.best_log_weight;
     pose->spread = estimate.spread;
     if (!std::isnan(estimate.silhouette_fit)) pose->silhouette_fit = estimate.silhouette_fit;
-    if (reference_pose_) {
-      forwardKinematics(model_, reference_kinematics_, reference_pose_(masks->sequence));
+    if (const Eigen::VectorXd reference =
+            reference_pose_ ? reference_pose_(masks->sequence) : Eigen::VectorXd();
+        reference.size() == static_cast<long>(model_.dofs.size())) {
+      forwardKinematics(model_, reference_kinematics_, reference);
       const std::vector<Eigen::Vector3d> truth = pointPositions(model_, reference_kinematics_);
       double sum = 0;
       for (std::size_t p = 0; p < truth.size(); ++p) sum += (truth[p] - pose->points[p]).norm();

@@ -60,7 +60,7 @@ struct PipelineInputs {
   // measures tracking, not segmentation.
   GroundTruthSilhouettes ground_truth;
   // The true pose of a frame set, when the source knows it (the fake scene): published poses then
-  // carry their error against it.
+  // carry their error against it. An empty vector: no subject in view then, no error.
   std::function<Eigen::VectorXd(uint64_t sequence)> reference_pose;
   // Where the subject starts; empty: the model's neutral pose.
   Eigen::VectorXd initial_pose;

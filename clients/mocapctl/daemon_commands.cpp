@@ -1,4 +1,5 @@
-// The mocapctl subcommands that talk to mocapd: stream, status, skeleton, record, bvh, bench.
+// The mocapctl subcommands that talk to mocapd: stream, status, skeleton, record, reacquire,
+// background, bvh, bench.
 #include "clients/mocapctl/daemon_commands.h"
 
 #include <time.h>
@@ -211,6 +212,34 @@ int runReacquire(int argc, char** argv) {
   DaemonClient client(flags);
   mocap::v1::ReacquireResponse response;
   check(client.stub().Reacquire(client.context().get(), {}, &response), "Reacquire");
+  return 0;
+}
+
+int runBackground(int argc, char** argv) {
+  DaemonFlags flags;
+  std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
+  const std::string frames_text = takeFlag(args, "--frames");
+  noMoreArguments(args);
+  mocap::v1::CaptureBackgroundRequest request;
+  if (!frames_text.empty())
+    request.set_frames(static_cast<uint32_t>(positiveNumber("--frames", frames_text)));
+  DaemonClient client(flags);
+  std::unique_ptr<grpc::ClientContext> context = client.context();
+  // The daemon answers DEADLINE_EXCEEDED itself when frames stop coming; this bound (cameras at
+  // 1 Hz at least) only keeps a daemon that never answers from hanging the command.
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::seconds(60 + std::max<uint32_t>(request.frames(), 25)));
+  mocap::v1::CaptureBackgroundResponse response;
+  check(client.stub().CaptureBackground(context.get(), request, &response), "CaptureBackground");
+  // What each camera extracts against now, and anything a saved background could not be.
+  mocap::v1::Status status;
+  check(client.stub().GetStatus(client.context().get(), {}, &status), "GetStatus");
+  nlohmann::json out = {{"frames_used", response.frames_used()},
+                        {"cameras", nlohmann::json::array()},
+                        {"warnings", status.background_warnings()}};
+  for (const mocap::v1::CameraStatus& camera : status.cameras())
+    out["cameras"].push_back({{"id", camera.id()}, {"silhouettes", camera.silhouettes()}});
+  std::cout << out.dump(1) << "\n";
   return 0;
 }
 

@@ -14,6 +14,9 @@ inline constexpr const char* kRecordUsage =
     "record start [PATH] | record stop   (PATH relative to the daemon's recording directory)";
 inline constexpr const char* kReacquireUsage =
     "reacquire                the tracker finds the subject again (poses resume once found)";
+inline constexpr const char* kBackgroundUsage =
+    "background [--frames N]  learn the empty scene (nobody in view) as every camera's background\n"
+    "                         from its next N frames (default 25): silhouettes are then extracted";
 inline constexpr const char* kBvhUsage =
     "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
 inline constexpr const char* kBenchUsage =
@@ -25,6 +28,7 @@ int runStatus(int argc, char** argv);
 int runSkeleton(int argc, char** argv);
 int runRecord(int argc, char** argv);
 int runReacquire(int argc, char** argv);
+int runBackground(int argc, char** argv);
 int runBvh(int argc, char** argv);
 int runBench(int argc, char** argv);
 

@@ -21,6 +21,7 @@ constexpr Command kCommands[] = {
     {"skeleton", mocapctl::kSkeletonUsage, mocapctl::runSkeleton},
     {"record", mocapctl::kRecordUsage, mocapctl::runRecord},
     {"reacquire", mocapctl::kReacquireUsage, mocapctl::runReacquire},
+    {"background", mocapctl::kBackgroundUsage, mocapctl::runBackground},
     {"bvh", mocapctl::kBvhUsage, mocapctl::runBvh},
     {"bench", mocapctl::kBenchUsage, mocapctl::runBench},
 };

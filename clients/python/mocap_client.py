@@ -79,6 +79,13 @@ class MocapClient:
         """Has the tracker find the subject again from the next frame set."""
         return self._stub.Reacquire(self.pb.ReacquireRequest(), metadata=self._metadata)
 
+    def capture_background(self, frames=0):
+        """Has the daemon learn the empty scene as every camera's background from its next
+        `frames` frames (0: the daemon's default); returns the frames used per camera."""
+        request = self.pb.CaptureBackgroundRequest(frames=frames)
+        return self._stub.CaptureBackground(request, metadata=self._metadata,
+                                            timeout=60 + max(frames, 25)).frames_used
+
     def health(self, service=""):
         """grpc.health.v1.Health/Check without its stubs (Debian ships none): the request is
         HealthCheckRequest{service}, the reply HealthCheckResponse{status}, both tiny enough to
@@ -113,13 +120,16 @@ def pose_to_dict(pose):
 
 def main():
     parser = argparse.ArgumentParser(description="Python client of mocapd")
-    parser.add_argument("command", choices=["stream", "status", "skeleton", "health", "reacquire"])
+    parser.add_argument("command", choices=["stream", "status", "skeleton", "health", "reacquire",
+                                            "background"])
     parser.add_argument("--server", default="127.0.0.1:50051")
     parser.add_argument("--token", default=os.environ.get("MOCAP_TOKEN"))
     parser.add_argument("--tls-ca")
     parser.add_argument("--stubs", help="folder of the generated stubs (<build>/python)")
     parser.add_argument("--count", type=int, default=0, help="stream: stop after N poses")
     parser.add_argument("--joints", default="", help="stream: comma-separated joint names")
+    parser.add_argument("--frames", type=int, default=0,
+                        help="background: frames per camera to learn from (0: the daemon's 25)")
     args = parser.parse_args()
 
     client = MocapClient(args.server, args.token, args.tls_ca, args.stubs)
@@ -141,6 +151,8 @@ def main():
             print(json_format.MessageToJson(client.skeleton(), including_default_value_fields=True))
         elif args.command == "reacquire":
             client.reacquire()
+        elif args.command == "background":
+            print(json.dumps({"frames_used": client.capture_background(args.frames)}))
         else:
             print(client.health())
     except client._grpc.RpcError as error:

@@ -135,6 +135,8 @@ int64_t FakeScene::epochNs() {
 }
 
 std::size_t FakeScene::motionFrame(uint64_t sequence) const {
+  if (!subjectInView(sequence)) return 0;
+  sequence -= options_.empty_frames;
   // Forward then backward: a looped motion would jump from its last pose to its first.
   const uint64_t n = motion_->size();
   if (n == 1) return 0;
@@ -143,11 +145,20 @@ std::size_t FakeScene::motionFrame(uint64_t sequence) const {
   return static_cast<std::size_t>(phase < n ? phase : cycle - phase);
 }
 
+Eigen::VectorXd FakeScene::truePose(uint64_t sequence) const {
+  return subjectInView(sequence) ? (*motion_)[motionFrame(sequence)] : Eigen::VectorXd();
+}
+
 GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
   GroundTruth truth;
   truth.sequence = sequence;
   truth.motion_frame = motionFrame(sequence);
-  truth.q = (*motion_)[truth.motion_frame];
+  truth.q = truePose(sequence);
+  if (truth.q.size() == 0) {
+    for (const CameraModel& camera : rig_)
+      truth.silhouettes.push_back(cv::Mat::zeros(camera.height, camera.width, CV_8UC1));
+    return truth;
+  }
   std::lock_guard<std::mutex> lock(truth_mutex_);
   if (!truth_renderer_) truth_renderer_ = std::make_unique<SceneRenderer>(*model_, rig_);
   truth_renderer_->renderSilhouettes(truth.q, truth.silhouettes);
@@ -157,8 +168,14 @@ GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
 void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch,
                        cv::Mat& image) const {
   const CameraModel& cam = rig_[camera];
-  forwardKinematics(*model_, scratch.kinematics, (*motion_)[motionFrame(sequence)]);
   backgrounds_[camera].copyTo(image);
+  if (subjectInView(sequence)) paintSubject(cam, sequence, scratch, image);
+  addNoise(camera, sequence, image);
+}
+
+void FakeScene::paintSubject(const CameraModel& cam, uint64_t sequence, FakeRenderScratch& scratch,
+                             cv::Mat& image) const {
+  forwardKinematics(*model_, scratch.kinematics, (*motion_)[motionFrame(sequence)]);
 
   // Painter's order, farthest segment first, so nearer segments cover it as they would.
   std::vector<std::pair<double, std::size_t>> order;
@@ -181,7 +198,9 @@ void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch
       std::fill(row + span.x0, row + span.x1, colour);
     }
   }
+}
 
+void FakeScene::addNoise(int camera, uint64_t sequence, cv::Mat& image) const {
   if (options_.noise_sigma <= 0) return;
   // Zero-mean noise in two saturating SIMD passes (add the positive part, subtract the negative),
   // read from the precomputed strip at a per-frame offset: cheap, and repeatable per frame.

@@ -62,6 +62,9 @@ struct FakeSceneOptions {
   FakePacing pacing = FakePacing::kRealTime;
   // Frames per camera before the stream ends (the thread stops delivering); 0: endless.
   uint64_t frame_limit = 0;
+  // Frames the cameras see the empty scene before the subject walks in, as a real room before
+  // the session starts: time to capture the background. The motion starts at its first frame then.
+  uint64_t empty_frames = 0;
   FakeFaults faults;
 };
 
@@ -74,7 +77,7 @@ Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, in
 struct GroundTruth {
   uint64_t sequence = 0;
   std::size_t motion_frame = 0;      // which frame of the motion was shown
-  Eigen::VectorXd q;                 // the DOF vector
+  Eigen::VectorXd q;                 // the DOF vector; empty while the scene is empty
   std::vector<cv::Mat> silhouettes;  // per camera, CV_8UC1, 255 where the body is
 };
 
@@ -106,7 +109,12 @@ class FakeScene {
   int64_t exposureTimeNs(uint64_t sequence) {
     return epochNs() + static_cast<int64_t>(sequence) * period_ns_;
   }
+  // Whether the subject is in view in frame `sequence` (options().empty_frames), and which frame
+  // of the motion it shows then.
+  bool subjectInView(uint64_t sequence) const { return sequence >= options_.empty_frames; }
   std::size_t motionFrame(uint64_t sequence) const;
+  // The subject's DOF vector in frame `sequence`, empty while the scene is empty. Cheap: no render.
+  Eigen::VectorXd truePose(uint64_t sequence) const;
 
   // The ground truth of frame `sequence`. Thread-safe (serialized); renders on each call.
   GroundTruth groundTruth(uint64_t sequence) const;
@@ -126,6 +134,9 @@ class FakeScene {
  private:
   explicit FakeScene(FakeSceneOptions options);
   uint64_t hash(int camera, uint64_t sequence, uint64_t salt) const;
+  void paintSubject(const CameraModel& camera, uint64_t sequence, FakeRenderScratch& scratch,
+                    cv::Mat& image) const;
+  void addNoise(int camera, uint64_t sequence, cv::Mat& image) const;
 
   FakeSceneOptions options_;
   std::shared_ptr<const BodyModel> model_;

@@ -81,8 +81,9 @@ TEST(ExampleConfigsTest, EveryShippedExampleIsCoveredHere) {
     const std::string name = entry.path().filename().string();
     if (name.rfind("example-rig-", 0) != 0) found.insert(name);
   }
-  EXPECT_EQ(found, (std::set<std::string>{"fake.yaml", "fake-walk.yaml", "gige.yaml",
-                                          "libcamera.yaml", "replay.yaml", "v4l2.yaml"}));
+  EXPECT_EQ(found,
+            (std::set<std::string>{"fake.yaml", "fake-walk.yaml", "fake-walk-extracted.yaml",
+                                   "gige.yaml", "libcamera.yaml", "replay.yaml", "v4l2.yaml"}));
 }
 
 TEST(ExampleConfigsTest, FakeIsTheEmbeddedDefaultSpeltOut) {
@@ -118,6 +119,21 @@ TEST(ExampleConfigsTest, FakeWalkPlaysTheSharedWalkOnTheHumanBody) {
   EXPECT_THAT(errorOf(path, replaceOnce(readFile(path), "driver: fake, device: \"scene:1\"",
                                         "driver: v4l2, device: /dev/video2")),
               HasSubstr("scene_motion: only the fake scene plays a motion (cameras[1] is v4l2)"));
+}
+
+// The session as on real cameras: an empty room first (for the background), silhouettes
+// extracted, the person found rather than placed; the people defaults otherwise.
+TEST(ExampleConfigsTest, FakeWalkExtractedStartsEmptyAndExtractsTheSilhouettes) {
+  const ServerConfig config = loadConfigFile((kConfigDir / "fake-walk-extracted.yaml").string());
+  const ServerConfig walk = loadConfigFile((kConfigDir / "fake-walk.yaml").string());
+  EXPECT_EQ(config.scene_motion, walk.scene_motion);
+  EXPECT_EQ(config.scene_empty_seconds, 5.0);
+  EXPECT_FALSE(config.true_silhouettes);
+  EXPECT_TRUE(walk.true_silhouettes);
+  EXPECT_EQ(config.tracker.start, "acquire");
+  EXPECT_EQ(config.tracker.evaluations, walk.tracker.evaluations);
+  EXPECT_EQ(config.tracker.refine, walk.tracker.refine);
+  EXPECT_EQ(config.tracker.lookahead, walk.tracker.lookahead);
 }
 
 TEST(ExampleConfigsTest, SystemDefaultRecordsUnderTheStateDirectory) {

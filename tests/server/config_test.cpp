@@ -13,6 +13,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "drivers/builtin_drivers.h"
 #include "server/tls_test_support.h"
 #include "tracker/experiments/human_experiment.h"
 
@@ -232,6 +233,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
 }
 
 TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
+  registerBuiltinDrivers(DriverRegistry::instance());  // the real cameras' keys are checked too
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
   // (configuration, what its error must say)
@@ -283,6 +285,9 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
        "test.yaml:3: silhouettes: expected extracted or ground_truth"},
       {cameras + "body_model: builtin:horse\n",
        "body_model: unknown built-in model (known: builtin:hand, builtin:human)"},
+      {cameras + "scene_empty_seconds: -1\n", "scene_empty_seconds: must be between 0 and 3600"},
+      {"cameras:\n  - {driver: v4l2, device: /dev/video0}\nscene_empty_seconds: 2\n",
+       "test.yaml:3: scene_empty_seconds: only the fake scene can be empty (cameras[0] is v4l2)"},
       {cameras + "scene_motion: /no/such/walk.bvh\n",
        "test.yaml:3: scene_motion: no such file: /no/such/walk.bvh"},
       {cameras + "body_model: builtin:hand\nscene_motion: " + walk + "\n",
@@ -334,6 +339,9 @@ TEST(ConfigTest, ATlsCertificateAndKeyAreCheckedBeforeTheyAreServed) {
 
 TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  EXPECT_EQ(
+      parseConfig(cameras + "scene_empty_seconds: 2.5\n", "test.yaml", ".").scene_empty_seconds,
+      2.5);
   EXPECT_TRUE(parseConfig(cameras, "test.yaml", ".").true_silhouettes);
   EXPECT_TRUE(
       parseConfig(cameras + "silhouettes: ground_truth\n", "test.yaml", ".").true_silhouettes);

@@ -111,6 +111,38 @@ TEST(FakeSceneCamera, GroundTruthMatchesTheRenderedImage) {
   }
 }
 
+// With empty_frames the room is empty at first (the background and noise alone, no truth), then
+// the subject walks in at the motion's first frame.
+TEST(FakeSceneCamera, AnEmptyRoomUntilTheSubjectWalksIn) {
+  FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 6);
+  options.scene.empty_frames = 3;
+  FakeDriver driver(options);
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
+  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
+  ASSERT_TRUE(collector.waitForFrames(6));
+  camera->stop();
+  std::shared_ptr<FakeScene> scene = driver.scene().value();
+  for (const Frame& frame : collector.frames()) {
+    const bool in_view = frame.sequence >= 3;
+    EXPECT_EQ(scene->subjectInView(frame.sequence), in_view);
+    const GroundTruth truth = scene->groundTruth(frame.sequence);
+    ASSERT_EQ(truth.silhouettes.size(), 2u);
+    EXPECT_EQ(cv::countNonZero(truth.silhouettes[0]) > 500, in_view) << frame.sequence;
+    if (in_view) {
+      EXPECT_EQ(truth.q, scene->motion()[frame.sequence - 3]);
+      EXPECT_EQ(scene->truePose(frame.sequence), truth.q);
+    } else {
+      EXPECT_EQ(truth.q.size(), 0);
+      EXPECT_EQ(scene->truePose(frame.sequence).size(), 0);
+    }
+    cv::Mat difference;
+    cv::absdiff(frame.image, scene->background(0), difference);
+    cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+    EXPECT_EQ(cv::countNonZero(difference > 40) > 500, in_view) << frame.sequence;
+  }
+}
+
 TEST(FakeSceneCamera, AsFastAsPossibleDeliversEveryFrameOnePeriodApart) {
   const FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 40);
   FakeDriver driver(options);
