@@ -213,6 +213,7 @@ grpc::ServerUnaryReactor* MocapServiceImpl::CaptureBackground(
     if (result.error != BackgroundError::kNone)
       logWarning() << "background capture failed: " << result.message;
     response->set_frames_used(static_cast<uint32_t>(result.frames_used));
+    for (const std::string& warning : result.warnings) response->add_warnings(warning);
     reactor->Finish(backgroundStatus(result));
   });
   return reactor;

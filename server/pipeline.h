@@ -128,6 +128,8 @@ struct BackgroundResult {
   BackgroundError error = BackgroundError::kNone;
   std::string message;
   int frames_used = 0;  // per camera
+  // Learned and in use, but doubtful: a camera whose image changed during the capture.
+  std::vector<std::string> warnings;
 };
 
 class Pipeline {
@@ -215,8 +217,9 @@ class Pipeline {
                   const BackgroundResult& result);
   // Constructor: loads what background_directory holds for each camera.
   void loadBackgrounds();
-  // Saver thread: writes the captured models, then ends the capture.
-  void saveBackgrounds(std::vector<BackgroundModel> models, int frames,
+  // Saver thread: writes the captured models, then ends the capture with `learned` (its error
+  // set if a file could not be written).
+  void saveBackgrounds(std::vector<BackgroundModel> models, BackgroundResult learned,
                        std::function<void(const BackgroundResult&)> done);
   // What status() reports as camera's silhouette source; ignored when the scene gives the truth.
   void setSilhouetteSource(std::size_t camera, std::string source);

@@ -231,12 +231,15 @@ int runBackground(int argc, char** argv) {
                         std::chrono::seconds(60 + std::max<uint32_t>(request.frames(), 25)));
   mocap::v1::CaptureBackgroundResponse response;
   check(client.stub().CaptureBackground(context.get(), request, &response), "CaptureBackground");
-  // What each camera extracts against now, and anything a saved background could not be.
+  // What each camera extracts against now, what was doubtful about this capture, and any saved
+  // background that could not be used.
   mocap::v1::Status status;
   check(client.stub().GetStatus(client.context().get(), {}, &status), "GetStatus");
+  nlohmann::json warnings = response.warnings();
+  for (const std::string& warning : status.background_warnings()) warnings.push_back(warning);
   nlohmann::json out = {{"frames_used", response.frames_used()},
                         {"cameras", nlohmann::json::array()},
-                        {"warnings", status.background_warnings()}};
+                        {"warnings", warnings}};
   for (const mocap::v1::CameraStatus& camera : status.cameras())
     out["cameras"].push_back({{"id", camera.id()}, {"silhouettes", camera.silhouettes()}});
   std::cout << out.dump(1) << "\n";

@@ -81,10 +81,11 @@ class MocapClient:
 
     def capture_background(self, frames=0):
         """Has the daemon learn the empty scene as every camera's background from its next
-        `frames` frames (0: the daemon's default); returns the frames used per camera."""
+        `frames` frames (0: the daemon's default); returns the CaptureBackgroundResponse (frames
+        used per camera, warnings about cameras whose image changed during the capture)."""
         request = self.pb.CaptureBackgroundRequest(frames=frames)
         return self._stub.CaptureBackground(request, metadata=self._metadata,
-                                            timeout=60 + max(frames, 25)).frames_used
+                                            timeout=60 + max(frames, 25))
 
     def health(self, service=""):
         """grpc.health.v1.Health/Check without its stubs (Debian ships none): the request is
@@ -152,7 +153,9 @@ def main():
         elif args.command == "reacquire":
             client.reacquire()
         elif args.command == "background":
-            print(json.dumps({"frames_used": client.capture_background(args.frames)}))
+            learned = client.capture_background(args.frames)
+            print(json.dumps({"frames_used": learned.frames_used,
+                              "warnings": list(learned.warnings)}))
         else:
             print(client.health())
     except client._grpc.RpcError as error:

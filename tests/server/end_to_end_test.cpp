@@ -476,10 +476,12 @@ TEST_F(EndToEndTest, TracksAPersonOnExtractedSilhouettesAfterTheEmptyRoomIsLearn
   std::unique_ptr<MocapServer> server = startServer(config);
   ASSERT_TRUE(server);
   const std::string address = "127.0.0.1:" + std::to_string(server->port());
-  EXPECT_EQ(python("background --frames 5 --server " + address), "{\"frames_used\": 5}\n");
+  EXPECT_EQ(python("background --frames 5 --server " + address),
+            "{\"frames_used\": 5, \"warnings\": []}\n");
   const std::string learnt = mocapctl("background --frames 20 --server " + address);
   EXPECT_THAT(learnt, ::testing::HasSubstr("\"frames_used\": 20")) << learnt;
   EXPECT_THAT(learnt, ::testing::HasSubstr("\"silhouettes\": \"background captured\""));
+  EXPECT_THAT(learnt, ::testing::HasSubstr("\"warnings\": []"));  // the room was empty
 
   auto stub = test::connect(server->port());
   const std::vector<v1::Pose> poses = readPoses(*stub, 100, [&](const v1::Pose& pose) {
@@ -499,6 +501,25 @@ TEST_F(EndToEndTest, TracksAPersonOnExtractedSilhouettesAfterTheEmptyRoomIsLearn
   EXPECT_TRUE(status.tracking());
   for (const v1::CameraStatus& camera : status.cameras())
     EXPECT_EQ(camera.silhouettes(), "background captured");
+}
+
+// A background learnt while someone walks through holds them: it is installed (the operator
+// decides), and the answer says, per camera, how much of the image changed.
+TEST_F(EndToEndTest, ABackgroundCapturedWithSomeoneMovingInViewIsReported) {
+  std::unique_ptr<MocapServer> server = startServer(walkingPersonConfig());
+  ASSERT_TRUE(server);
+  auto stub = test::connect(server->port());
+  v1::CaptureBackgroundResponse response;
+  const grpc::Status status = test::captureBackground(*stub, 25, response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.frames_used(), 25u);
+  ASSERT_EQ(response.warnings_size(), 2);
+  for (int c = 0; c < 2; ++c) {
+    EXPECT_THAT(response.warnings(c), ::testing::HasSubstr("camera " + std::to_string(c) +
+                                                           " (scene:" + std::to_string(c) + "): "));
+    EXPECT_THAT(response.warnings(c),
+                ::testing::HasSubstr(" % of the image changed during the capture"));
+  }
 }
 
 // A client that sees the poses have gone wrong asks the tracker to find the person again; the

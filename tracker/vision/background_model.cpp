@@ -61,6 +61,15 @@ BackgroundModel learnBackground(const std::vector<cv::Mat>& frames) {
   return learner.model();
 }
 
+double unsteadyShare(const BackgroundModel& model, double grey_levels) {
+  if (model.empty()) return 0;
+  cv::Mat per_pixel = model.stddev.reshape(1, static_cast<int>(model.stddev.total()));
+  cv::Mat largest;
+  cv::reduce(per_pixel, largest, 1, cv::REDUCE_MAX);  // the largest channel of each pixel
+  return static_cast<double>(cv::countNonZero(largest > grey_levels)) /
+         static_cast<double>(model.stddev.total());
+}
+
 namespace {
 
 // Writes the model to `path` with FileStorage; throws naming `path`.

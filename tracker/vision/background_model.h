@@ -37,6 +37,11 @@ class BackgroundLearner {
 
 BackgroundModel learnBackground(const std::vector<cv::Mat>& frames);
 
+// The share of the model's pixels (0 to 1) whose standard deviation, in any channel, exceeds
+// `grey_levels`: pixels that changed during the capture, where someone or something moved. Sensor
+// noise stays far below the default (5 sigma of a noisy camera's 3 grey levels).
+double unsteadyShare(const BackgroundModel& model, double grey_levels = 15);
+
 // OpenCV FileStorage (YAML or XML by extension, ".gz" appended compresses), matrices in base64.
 // saveBackground replaces `path` atomically (a hidden temporary file in the same directory, read
 // back, flushed, then renamed) and throws std::runtime_error naming the file; loadBackground throws

@@ -44,6 +44,25 @@ TEST(BackgroundModel, LearnsMeanAndNoise) {
   }
 }
 
+// Noise alone leaves the capture steady; a patch that changes in some frames (someone walking
+// through) is counted, in gray and in colour, whichever channel changes.
+TEST(BackgroundModel, UnsteadyShareCountsThePixelsThatChangedDuringTheCapture) {
+  for (int type : {CV_8UC1, CV_8UC3}) {
+    std::vector<cv::Mat> frames = noisyFrames(type, 25, 3.0);
+    EXPECT_EQ(unsteadyShare(learnBackground(frames)), 0.0);
+    // A 10x12 patch of the 30x40 image (10 %) covered in 5 of the 25 frames, 80 levels off in
+    // the last channel only.
+    for (int i = 0; i < 5; ++i) {
+      cv::Mat patch = frames[i](cv::Rect(5, 5, 12, 10));
+      std::vector<cv::Mat> channels;
+      cv::split(patch, channels);
+      channels.back() += 80;
+      cv::merge(channels, patch);
+    }
+    EXPECT_NEAR(unsteadyShare(learnBackground(frames)), 0.10, 1e-9) << type;
+  }
+}
+
 TEST(BackgroundModel, RefusesMismatchedFrames) {
   BackgroundLearner learner;
   EXPECT_TRUE(learner.add(cv::Mat(10, 10, CV_8UC3, cv::Scalar::all(7))));
@@ -54,7 +73,8 @@ TEST(BackgroundModel, RefusesMismatchedFrames) {
 
 TEST(BackgroundModel, SaveLoadRoundTrip) {
   const BackgroundModel model = learnBackground(noisyFrames(CV_8UC3, 10, 2.0));
-  const std::string path = (std::filesystem::temp_directory_path() / "mocap_bg_test.yml.gz").string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "mocap_bg_test.yml.gz").string();
   saveBackground(path, model);
   const BackgroundModel loaded = loadBackground(path);
   EXPECT_EQ(cv::norm(model.mean, loaded.mean, cv::NORM_INF), 0.0);
