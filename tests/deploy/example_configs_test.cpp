@@ -136,17 +136,20 @@ TEST(ExampleConfigsTest, FakeWalkExtractedStartsEmptyAndExtractsTheSilhouettes) 
   EXPECT_EQ(config.tracker.lookahead, walk.tracker.lookahead);
 }
 
-TEST(ExampleConfigsTest, SystemDefaultRecordsUnderTheStateDirectory) {
+TEST(ExampleConfigsTest, SystemDefaultRecordsAndKeepsBackgroundsUnderTheStateDirectory) {
   // /var/lib/mocapd is made by the unit's StateDirectory=; here a scratch folder stands in.
   const std::filesystem::path path = kDeployDir / "mocapd.yaml";
   const std::filesystem::path state = std::filesystem::path(testing::TempDir()) / "mocapd-state";
   std::filesystem::create_directories(state);
-  const ServerConfig config =
-      parseAs(path, replaceOnce(readFile(path), "recording_directory: /var/lib/mocapd",
-                                "recording_directory: " + state.string()));
+  const std::string text = replaceOnce(
+      replaceOnce(readFile(path), "recording_directory: /var/lib/mocapd",
+                  "recording_directory: " + state.string()),
+      "background_directory: /var/lib/mocapd", "background_directory: " + state.string());
+  const ServerConfig config = parseAs(path, text);
   EXPECT_EQ(config.cameras.size(), 2u);
   EXPECT_EQ(config.listen, "127.0.0.1:50051");
   EXPECT_EQ(config.recording_directory, std::filesystem::canonical(state).string());
+  EXPECT_EQ(config.background_directory, config.recording_directory);
   EXPECT_TRUE(config.bearer_token.empty());
 }
 
