@@ -52,6 +52,20 @@ std::unique_ptr<Camera> openCamera(FakeDriver& driver, const CameraConfig& confi
   return camera.ok() ? std::move(camera.value()) : nullptr;
 }
 
+// The frames one camera of `driver` delivers until `count` have come (all it delivered, when its
+// frame limit stops it sooner: the caller checks the count), the camera then stopped.
+std::vector<Frame> firstFrames(FakeDriver& driver, const CameraConfig& config, std::size_t count) {
+  Collector collector;
+  std::unique_ptr<Camera> camera = openCamera(driver, config);
+  if (!camera || !camera->start(collector.frameSink(), collector.eventSink()).ok()) {
+    ADD_FAILURE() << config.device << " did not start";
+    return {};
+  }
+  EXPECT_TRUE(collector.waitForFrames(count));
+  camera->stop();
+  return collector.frames();
+}
+
 TEST(FakeSceneCamera, RealTimeFramesHaveIncreasingSequencesAndTimestamps) {
   const FakeDriverOptions options = smallScene(FakePacing::kRealTime, 0);
   FakeDriver driver(options);
@@ -89,13 +103,10 @@ TEST(FakeSceneCamera, RealTimeFramesHaveIncreasingSequencesAndTimestamps) {
 TEST(FakeSceneCamera, GroundTruthMatchesTheRenderedImage) {
   const FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 8);
   FakeDriver driver(options);
-  Collector collector;
-  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(1, options));
-  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
-  ASSERT_TRUE(collector.waitForFrames(8));
-  camera->stop();
+  const std::vector<Frame> frames = firstFrames(driver, sceneCamera(1, options), 8);
+  ASSERT_EQ(frames.size(), 8u);
   std::shared_ptr<FakeScene> scene = driver.scene().value();
-  for (const Frame& frame : collector.frames()) {
+  for (const Frame& frame : frames) {
     const GroundTruth truth = scene->groundTruth(frame.sequence);
     EXPECT_EQ(truth.q, scene->motion()[scene->motionFrame(frame.sequence)]);
     ASSERT_EQ(truth.silhouettes.size(), 2u);
@@ -117,13 +128,10 @@ TEST(FakeSceneCamera, AnEmptyRoomUntilTheSubjectWalksIn) {
   FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 6);
   options.scene.empty_frames = 3;
   FakeDriver driver(options);
-  Collector collector;
-  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
-  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
-  ASSERT_TRUE(collector.waitForFrames(6));
-  camera->stop();
+  const std::vector<Frame> frames = firstFrames(driver, sceneCamera(0, options), 6);
+  ASSERT_EQ(frames.size(), 6u);
   std::shared_ptr<FakeScene> scene = driver.scene().value();
-  for (const Frame& frame : collector.frames()) {
+  for (const Frame& frame : frames) {
     const bool in_view = frame.sequence >= 3;
     EXPECT_EQ(scene->subjectInView(frame.sequence), in_view);
     const GroundTruth truth = scene->groundTruth(frame.sequence);
@@ -146,12 +154,7 @@ TEST(FakeSceneCamera, AnEmptyRoomUntilTheSubjectWalksIn) {
 TEST(FakeSceneCamera, AsFastAsPossibleDeliversEveryFrameOnePeriodApart) {
   const FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 40);
   FakeDriver driver(options);
-  Collector collector;
-  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
-  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
-  ASSERT_TRUE(collector.waitForFrames(40));
-  camera->stop();
-  const std::vector<Frame> frames = collector.frames();
+  const std::vector<Frame> frames = firstFrames(driver, sceneCamera(0, options), 40);
   ASSERT_EQ(frames.size(), 40u);
   for (std::size_t i = 0; i < frames.size(); ++i) {
     EXPECT_EQ(frames[i].sequence, i);
@@ -167,12 +170,9 @@ TEST(FakeSceneCamera, GrayOutputWhenConfigured) {
   FakeDriver driver(options);
   CameraConfig config = sceneCamera(0, options);
   config.pixel_format = "GREY";
-  Collector collector;
-  std::unique_ptr<Camera> camera = openCamera(driver, config);
-  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
-  ASSERT_TRUE(collector.waitForFrames(2));
-  camera->stop();
-  EXPECT_EQ(collector.frames().front().image.type(), CV_8UC1);
+  const std::vector<Frame> frames = firstFrames(driver, config, 2);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(frames.front().image.type(), CV_8UC1);
 }
 
 TEST(FakeSceneCamera, DropsAreCountedInDroppedBefore) {
@@ -180,12 +180,8 @@ TEST(FakeSceneCamera, DropsAreCountedInDroppedBefore) {
   options.scene.faults.drop_rate = 0.3;
   options.scene.faults.timestamp_jitter = std::chrono::milliseconds(2);
   FakeDriver driver(options);
-  Collector collector;
-  std::unique_ptr<Camera> camera = openCamera(driver, sceneCamera(0, options));
-  ASSERT_TRUE(camera->start(collector.frameSink(), collector.eventSink()).ok());
-  ASSERT_TRUE(collector.waitForFrames(100));
-  camera.reset();  // stops
-  const std::vector<Frame> frames = collector.frames();
+  const std::vector<Frame> frames = firstFrames(driver, sceneCamera(0, options), 100);
+  ASSERT_GE(frames.size(), 100u);
   uint64_t lost = frames.front().sequence;  // drops before the first frame
   bool jittered = false;
   for (std::size_t i = 1; i < frames.size(); ++i) {
