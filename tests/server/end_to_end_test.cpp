@@ -712,7 +712,9 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
       ASSERT_TRUE(stub->StreamPoses(&context, v1::StreamPosesRequest())->Read(&pose));
       context.TryCancel();
     }
-    record(*stub, "session", 10);
+    // More sets than the replay's acquisition trial (its hypotheses are tracked for 10 frames,
+    // each spending the budget): the last frame is tracked by the one kept.
+    record(*stub, "session", 15);
   }
   // The replay's configuration names no body and no tracker keys: the session's own body (31
   // DOFs) is tracked, not the built-in hand (15), with the session's settings.
