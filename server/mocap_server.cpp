@@ -180,6 +180,13 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
         inputs.ground_truth = [shared](uint64_t sequence) {
           return shared->groundTruth(sequence).silhouettes;
         };
+        for (std::size_t c = 0; c < inputs.cameras.size(); ++c) {
+          auto empty = std::make_shared<BackgroundModel>();
+          shared->background(static_cast<int>(c)).convertTo(empty->mean, CV_32F);
+          empty->stddev = cv::Mat(empty->mean.size(), empty->mean.type(),
+                                  cv::Scalar::all(shared->options().noise_sigma));
+          inputs.scene_backgrounds.push_back(std::move(empty));
+        }
       }
       inputs.reference_pose = [shared](uint64_t sequence) { return shared->truePose(sequence); };
       // The subject's first pose in view, as a real session would give it by a start-up pose.

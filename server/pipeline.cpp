@@ -78,7 +78,14 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   }
   camera_cv_types_.assign(cameras_.size(), -1);
   extractors_.resize(cameras_.size());
-  silhouette_sources_.assign(cameras_.size(), ground_truth_ ? "ground truth" : "threshold");
+  backgrounds_in_use_ = std::move(inputs.scene_backgrounds);
+  backgrounds_in_use_.resize(cameras_.size());
+  next_replayed_backgrounds_.assign(cameras_.size(), 0);
+  next_frame_sequences_.assign(cameras_.size(), 0);
+  silhouette_sources_.assign(cameras_.size(), ground_truth_ ? "ground truth"
+                                              : replay_ && replay_->backgrounds().empty()
+                                                  ? "threshold (the session stores no background)"
+                                                  : "threshold");
   if (!config_.background_directory.empty() && !replay_) loadBackgrounds();
 
   SyncConfig sync;
@@ -204,7 +211,7 @@ void Pipeline::loadBackgrounds() {
       setSilhouetteSource(c, "threshold (" + path + " does not fit this camera)");
       continue;
     }
-    extractors_[c] = std::make_unique<SilhouetteExtractor>(std::move(model));
+    useBackground(c, std::make_shared<const BackgroundModel>(std::move(model)));
     logInfo() << "cameras[" << c << "]: background loaded from " << path;
     setSilhouetteSource(c, "background loaded from " + path);
   }
@@ -356,27 +363,28 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
                 {}});
     return true;
   }
+  // The extractors adapt their copies; the models stay as learnt, for the files and recordings.
+  std::vector<std::shared_ptr<const BackgroundModel>> models;
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors;
-  std::vector<BackgroundModel> models;
   try {
     for (const BackgroundLearner& learner : capture.learners) {
-      const BackgroundModel model = learner.model();
-      // The extractor adapts its copy while the saver thread writes this one.
-      models.push_back({model.mean.clone(), model.stddev.clone()});
-      extractors.push_back(std::make_unique<SilhouetteExtractor>(model));
+      models.push_back(std::make_shared<const BackgroundModel>(learner.model()));
+      extractors.push_back(std::make_unique<SilhouetteExtractor>(*models.back()));
     }
   } catch (const std::exception& error) {
     endCapture(capture.done, {BackgroundError::kUnusable, error.what(), 0, {}});
     return true;
   }
-  extractors_ = std::move(extractors);
-  for (std::size_t c = 0; c < cameras_.size(); ++c) setSilhouetteSource(c, "background captured");
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    useBackground(c, models[c], std::move(extractors[c]));
+    setSilhouetteSource(c, "background captured");
+  }
   // Installed anyway: the operator, told, decides whether to capture again.
   BackgroundResult learned{BackgroundError::kNone, "", capture.frames, {}};
   std::ostringstream shares;
   shares << std::fixed << std::setprecision(2);
   for (std::size_t c = 0; c < models.size(); ++c) {
-    const double share = unsteadyShare(models[c]);
+    const double share = unsteadyShare(*models[c]);
     shares << (c ? ", " : "") << 100 * share << " %";
     if (share <= kUnsteadyShareWarning) continue;
     std::ostringstream warning;
@@ -402,12 +410,38 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
   return true;
 }
 
-void Pipeline::saveBackgrounds(std::vector<BackgroundModel> models, BackgroundResult learned,
+void Pipeline::useBackground(std::size_t camera, std::shared_ptr<const BackgroundModel> background,
+                             std::unique_ptr<SilhouetteExtractor> extractor) {
+  if (background && !extractor) extractor = std::make_unique<SilhouetteExtractor>(*background);
+  extractors_[camera] = std::move(extractor);
+  std::lock_guard lock(recording_mutex_);
+  if (recorder_)
+    recorder_->writeBackground(static_cast<int>(camera), next_frame_sequences_[camera], background);
+  backgrounds_in_use_[camera] = std::move(background);
+}
+
+void Pipeline::replayBackgrounds(std::size_t camera, uint64_t frame_sequence) {
+  const std::vector<SessionBackground>& recorded = replay_->backgrounds();
+  // Each camera's lines are in order of from_sequence and its frames come in order of sequence.
+  std::size_t& next = next_replayed_backgrounds_[camera];
+  for (; next < recorded.size(); ++next) {
+    const SessionBackground& line = recorded[next];
+    if (static_cast<std::size_t>(line.camera) != camera) continue;
+    if (line.from_sequence > frame_sequence) break;
+    useBackground(camera, line.model);  // a recording of the replay keeps it too
+    setSilhouetteSource(camera, line.model
+                                    ? "background recorded in the session (" + line.file + ")"
+                                    : "threshold (the session recorded none from here)");
+  }
+}
+
+void Pipeline::saveBackgrounds(std::vector<std::shared_ptr<const BackgroundModel>> models,
+                               BackgroundResult learned,
                                std::function<void(const BackgroundResult&)> done) {
   std::string failures;
   for (std::size_t c = 0; c < models.size(); ++c) {
     try {
-      saveBackground(backgroundFile(c), models[c]);
+      saveBackground(backgroundFile(c), *models[c]);
     } catch (const std::exception& e) {
       failures += (failures.empty() ? "" : "; ") + std::string(e.what());
     }
@@ -446,8 +480,11 @@ void Pipeline::maskLoop() {
     }
     {
       std::lock_guard lock(recording_mutex_);
-      for (std::size_t c = 0; c < set->frames.size() && c < cameras_.size(); ++c)
-        if (set->frames[c]) camera_cv_types_[c] = set->frames[c]->image.type();
+      for (std::size_t c = 0; c < set->frames.size() && c < cameras_.size(); ++c) {
+        if (!set->frames[c]) continue;
+        camera_cv_types_[c] = set->frames[c]->image.type();
+        next_frame_sequences_[c] = set->frames[c]->sequence + 1;
+      }
       if (recorder_) recorder_->write(*set);
     }
     MaskSet masks{set->sequence, set->timestamp_ns, {}};
@@ -475,6 +512,7 @@ void Pipeline::maskLoop() {
         if (c < truth.size()) latest[c] = SilhouetteMask(truth[c]);
         continue;
       }
+      if (replay_) replayBackgrounds(c, set->frames[c]->sequence);
       if (extractors_[c] && !extractors_[c]->extract(image)) {
         // A background of another format (the camera's pixel format changed since it was saved):
         // thresholding beats silhouettes frozen at the last good frame.
@@ -483,7 +521,7 @@ void Pipeline::maskLoop() {
                      << "; thresholded until the next capture";
         setSilhouetteSource(c,
                             "threshold (background unusable: " + extractors_[c]->lastError() + ")");
-        extractors_[c].reset();
+        useBackground(c, nullptr);
       }
       latest[c] = extractors_[c] ? extractors_[c]->silhouette() : thresholdMask(image);
     }
@@ -604,9 +642,11 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
     return {RecordingError::kBusy, "session " + relative_path + " already exists", {}};
 
   std::vector<SessionCamera> cameras;
+  std::vector<std::shared_ptr<const BackgroundModel>> backgrounds;
   {
     std::lock_guard lock(recording_mutex_);
     if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
+    backgrounds = backgrounds_in_use_;
     for (std::size_t c = 0; c < cameras_.size(); ++c) {
       if (camera_cv_types_[c] < 0)
         return {
@@ -623,11 +663,17 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   // Opening writes files: done outside the lock so the mask thread never waits on the disk.
   auto recorder = std::make_unique<Recorder>(config_.recording_directory);
   const Status opened =
-      recorder->open(requested, rig_, cameras, {&model_, config_.tracker.keyValues()});
+      recorder->open(requested, rig_, cameras, {&model_, config_.tracker.keyValues(), backgrounds});
   if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
   std::lock_guard lock(recording_mutex_);
   if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
   recorder_ = std::move(recorder);
+  // A background installed while the session was being opened applies from its camera's next frame.
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    if (backgrounds_in_use_[c] != backgrounds[c])
+      recorder_->writeBackground(static_cast<int>(c), next_frame_sequences_[c],
+                                 backgrounds_in_use_[c]);
+  }
   recording_path_ = relative_path;
   recording_started_wall_ns_ = wallNowNs();
   logInfo() << "recording to " << recorder_->sessionPath().string();

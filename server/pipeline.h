@@ -59,6 +59,10 @@ struct PipelineInputs {
   // Used instead of extracting silhouettes from the images when set: the fake scene's demo
   // measures tracking, not segmentation.
   GroundTruthSilhouettes ground_truth;
+  // With ground_truth, per camera: the empty scene (the fake scene's room, its sensor noise as the
+  // deviation). A recording stores it as the camera's background, so a replay, which has no truth,
+  // extracts silhouettes from the recorded images.
+  std::vector<std::shared_ptr<const BackgroundModel>> scene_backgrounds;
   // The true pose of a frame set, when the source knows it (the fake scene): published poses then
   // carry their error against it. An empty vector: no subject in view then, no error.
   std::function<Eigen::VectorXd(uint64_t sequence)> reference_pose;
@@ -217,10 +221,16 @@ class Pipeline {
                   const BackgroundResult& result);
   // Constructor: loads what background_directory holds for each camera.
   void loadBackgrounds();
+  // Mask thread (or the constructor): camera's silhouettes are extracted against `background`
+  // from its next frame on (null: thresholded), and an open recording notes it.
+  void useBackground(std::size_t camera, std::shared_ptr<const BackgroundModel> background,
+                     std::unique_ptr<SilhouetteExtractor> extractor = nullptr);
+  // Mask thread, replay: installs the session's recorded backgrounds due by camera's `frame`.
+  void replayBackgrounds(std::size_t camera, uint64_t frame_sequence);
   // Saver thread: writes the captured models, then ends the capture with `learned` (its error
   // set if a file could not be written).
-  void saveBackgrounds(std::vector<BackgroundModel> models, BackgroundResult learned,
-                       std::function<void(const BackgroundResult&)> done);
+  void saveBackgrounds(std::vector<std::shared_ptr<const BackgroundModel>> models,
+                       BackgroundResult learned, std::function<void(const BackgroundResult&)> done);
   // What status() reports as camera's silhouette source; ignored when the scene gives the truth.
   void setSilhouetteSource(std::size_t camera, std::string source);
   void warnBackground(const std::string& warning);
@@ -267,14 +277,21 @@ class Pipeline {
   int64_t recording_started_wall_ns_ = 0;
   RecordingStatus last_recording_;
   std::vector<int> camera_cv_types_;  // of the latest frames, -1 before the first
+  // Per camera: the background a recording stores for it (the one its silhouettes are extracted
+  // against, or the scene's with true silhouettes; null: thresholded), and the sequence its next
+  // frame will have at the least (one past the latest).
+  std::vector<std::shared_ptr<const BackgroundModel>> backgrounds_in_use_;
+  std::vector<uint64_t> next_frame_sequences_;
 
   // A background capture, handed from the requester to the mask thread under capture_mutex_.
   std::mutex capture_mutex_;
   std::unique_ptr<BackgroundCapture> capture_request_;
   bool capture_busy_ = false;        // requested or under way
   bool accepting_captures_ = false;  // while the mask thread runs
-  // Mask thread only: per camera, null until a background is captured.
+  // Mask thread only: per camera, null until a background is captured; in replay, per camera, the
+  // index of the first of the session's backgrounds() not installed yet.
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;
+  std::vector<std::size_t> next_replayed_backgrounds_;
   // Saves a capture's backgrounds; joined before the next one starts and by stop().
   std::thread save_thread_;
   // Read by status(): where each camera's silhouettes come from, and the start-up warnings.

@@ -172,21 +172,41 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
     closeFiles();
     return Status::Error(message);
   }
+  const std::string backgrounds_path = (session / kBackgroundsFile).string();
+  backgrounds_fd_ =
+      ::open(backgrounds_path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  const std::string backgrounds_header = std::string(kBackgroundsHeader) + "\n";
+  if (backgrounds_fd_ < 0 ||
+      !writeAll(backgrounds_fd_, backgrounds_header.data(), backgrounds_header.size())) {
+    const std::string message = errnoText("recorder: cannot create", backgrounds_path);
+    closeFiles();
+    return Status::Error(message);
+  }
+  session_ = session;
+  cameras_ = cameras;
+  for (std::size_t c = 0; c < tracking.backgrounds.size() && c < cameras.size(); ++c) {
+    if (!tracking.backgrounds[c]) continue;
+    if (!storeBackground({0, static_cast<int>(c), ""}, tracking.backgrounds[c].get())) {
+      closeFiles();
+      std::lock_guard<std::mutex> lock(mutex_);
+      return Status::Error("recorder: " + stats_.last_error);
+    }
+  }
   // The manifest goes last: a directory without one is not a session, whatever else it holds.
   if (Status status = writeFileAtomically(session / kManifestFile, emitManifest(manifest)); !status.ok()) {
     closeFiles();
     return Status::Error("recorder: " + status.message());
   }
-  session_ = session;
-  cameras_ = cameras;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stats_ = {};
     queue_.clear();
+    background_queue_.clear();
     closing_ = false;
   }
   last_index_sync_ns_ = monotonicNowNs();
   writer_ = std::thread([this] { writerLoop(); });
+  background_writer_ = std::thread([this] { backgroundWriterLoop(); });
   return Status::Ok();
 }
 
@@ -206,6 +226,59 @@ void Recorder::write(const FrameSet& set) {
   queued_.notify_one();
 }
 
+void Recorder::writeBackground(int camera, uint64_t from_sequence,
+                               std::shared_ptr<const BackgroundModel> background) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!writer_.joinable() || closing_) return;
+    background_queue_.push_back({{from_sequence, camera, ""}, std::move(background)});
+  }
+  backgrounds_queued_.notify_one();
+}
+
+template <typename Job>
+bool Recorder::nextJob(std::deque<Job>& queue, std::condition_variable& queued, Job& job) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  queued.wait(lock, [&] { return closing_ || !queue.empty(); });
+  if (queue.empty()) return false;  // closing and drained
+  job = std::move(queue.front());
+  queue.pop_front();
+  return true;
+}
+
+void Recorder::backgroundWriterLoop() {
+  BackgroundJob job;
+  while (nextJob(background_queue_, backgrounds_queued_, job))
+    storeBackground(job.record, job.model.get());
+}
+
+bool Recorder::storeBackground(BackgroundRecord record, const BackgroundModel* model) {
+  if (record.camera < 0 || static_cast<std::size_t>(record.camera) >= cameras_.size()) {
+    fail("background of camera " + std::to_string(record.camera) + ", which the session lacks");
+    return false;
+  }
+  if (model) {
+    char name[40];
+    std::snprintf(name, sizeof name, "background_%06llu.yml",
+                  static_cast<unsigned long long>(record.from_sequence));
+    record.file = name;
+    try {
+      saveBackground((session_ / cameraDirectoryName(record.camera) / name).string(), *model);
+    } catch (const std::exception& e) {
+      fail(e.what());
+      return false;
+    }
+  }
+  // The commit record: written after the model is on disk (saveBackground flushes it).
+  const std::string line = formatBackgroundLine(record) + "\n";
+  if (!writeAll(backgrounds_fd_, line.data(), line.size()) ||
+      (options_.durability == Durability::kPowerLoss && ::fdatasync(backgrounds_fd_) != 0)) {
+    fail(errnoText("cannot append to", (session_ / kBackgroundsFile).string()));
+    return false;
+  }
+  return true;
+}
+
 Status Recorder::close() {
   if (!writer_.joinable()) return Status::Ok();
   {
@@ -213,7 +286,9 @@ Status Recorder::close() {
     closing_ = true;
   }
   queued_.notify_one();
+  backgrounds_queued_.notify_one();
   writer_.join();
+  background_writer_.join();
   syncIndexes();
   closeFiles();
   std::lock_guard<std::mutex> lock(mutex_);
@@ -227,15 +302,8 @@ RecorderStats Recorder::stats() const {
 }
 
 void Recorder::writerLoop() {
-  for (;;) {
-    FrameSet set;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      queued_.wait(lock, [this] { return closing_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // closing and drained
-      set = std::move(queue_.front());
-      queue_.pop_front();
-    }
+  FrameSet set;
+  while (nextJob(queue_, queued_, set)) {
     if (writeSet(set)) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.sets_written;
@@ -364,6 +432,8 @@ void Recorder::closeFiles() {
   files_.clear();
   if (sets_fd_ >= 0) ::close(sets_fd_);
   sets_fd_ = -1;
+  if (backgrounds_fd_ >= 0) ::close(backgrounds_fd_);
+  backgrounds_fd_ = -1;
 }
 
 }  // namespace mocap

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -18,6 +19,7 @@
 #include "drivers/sync/frame_synchronizer.h"
 #include "tracker/body_model.h"
 #include "tracker/camera.h"
+#include "tracker/vision/background_model.h"
 
 namespace mocap {
 
@@ -53,6 +55,9 @@ struct RecorderStats {
 struct SessionTracking {
   const BodyModel* body = nullptr;  // stored as body.yaml; nullptr: none
   std::vector<std::pair<std::string, std::string>> tracker_settings;  // the manifest's `tracker:`
+  // Per camera, the silhouette background in use when the recording starts (stored in
+  // backgrounds.csv from the camera's first frame); null or missing: none (thresholded).
+  std::vector<std::shared_ptr<const BackgroundModel>> backgrounds;
 };
 
 // Thread use: open(), write(), close() and stats() from one owner thread (stats() from any).
@@ -76,6 +81,12 @@ class Recorder {
   // queue is full. Frames are matched to cameras by their index in FrameSet::frames.
   void write(const FrameSet& set);
 
+  // Records that `camera`'s frames from camera_sequence `from_sequence` on are extracted against
+  // `background` (null: none, thresholded). Never dropped, and stored on a thread of the
+  // recorder's, so the caller never waits on the disk.
+  void writeBackground(int camera, uint64_t from_sequence,
+                       std::shared_ptr<const BackgroundModel> background);
+
   // Writes what is queued, syncs and stops the writer. Returns the first I/O error, if any.
   Status close();
 
@@ -89,7 +100,19 @@ class Recorder {
     int index_fd = -1;
     uint64_t next_image = 0;
   };
+  struct BackgroundJob {
+    BackgroundRecord record;
+    std::shared_ptr<const BackgroundModel> model;
+  };
+  // Waits for the next job of `queue` (signalled by `queued`); false once closing and drained.
+  template <typename Job>
+  bool nextJob(std::deque<Job>& queue, std::condition_variable& queued, Job& job);
   void writerLoop();
+  // Stores the queued backgrounds on a thread of their own: a model takes a few hundred ms to
+  // write, which would hold up the sets.
+  void backgroundWriterLoop();
+  // Stores the model (if any), then appends its line to backgrounds.csv; false on an I/O error.
+  bool storeBackground(BackgroundRecord record, const BackgroundModel* model);
   // Writes one set: images, then index lines, then the commit line; false on an I/O error.
   bool writeSet(const FrameSet& set);
   bool writeImage(int camera, const std::vector<uint8_t>& png, std::string& file_name);
@@ -103,12 +126,16 @@ class Recorder {
   std::vector<SessionCamera> cameras_;
   std::vector<CameraFiles> files_;
   int sets_fd_ = -1;
+  int backgrounds_fd_ = -1;
   int64_t last_index_sync_ns_ = 0;
 
   std::thread writer_;
   mutable std::mutex mutex_;
   std::condition_variable queued_;
   std::deque<FrameSet> queue_;
+  std::thread background_writer_;
+  std::condition_variable backgrounds_queued_;
+  std::deque<BackgroundJob> background_queue_;
   bool closing_ = false;
   RecorderStats stats_;
 };

@@ -77,6 +77,30 @@ Expected<IndexRecord> parseIndexLine(const std::string& line) {
   return r;
 }
 
+std::string formatBackgroundLine(const BackgroundRecord& r) {
+  return std::to_string(r.from_sequence) + "," + std::to_string(r.camera) + "," + r.file;
+}
+
+Expected<BackgroundRecord> parseBackgroundLine(const std::string& line, std::size_t camera_count) {
+  const std::vector<std::string> c = splitCsv(line);
+  if (c.size() != 3) {
+    return Status::Error("expected 3 columns (" + std::string(kBackgroundsHeader) + "), found " +
+                         std::to_string(c.size()));
+  }
+  BackgroundRecord r;
+  if (!parseNumber(c[0], r.from_sequence))
+    return Status::Error("from_sequence '" + c[0] + "' is not a number");
+  if (!parseNumber(c[1], r.camera) || r.camera < 0 ||
+      static_cast<std::size_t>(r.camera) >= camera_count) {
+    return Status::Error("camera '" + c[1] + "' is not a camera of the session (" +
+                         std::to_string(camera_count) + " cameras)");
+  }
+  if (!c[2].empty() && !isPlainFileName(c[2]))
+    return Status::Error("file '" + c[2] + "' is not a file name in the camera directory");
+  r.file = c[2];
+  return r;
+}
+
 Expected<SetRecord> parseSetLine(const std::string& line, std::size_t camera_count) {
   const std::vector<std::string> c = splitCsv(line);
   if (c.size() != 3) {

@@ -13,6 +13,13 @@
 //   <session>/sets.csv           one line per committed frame set: set_sequence,timestamp_ns,present
 //                                (present: one '1'/'0' per camera), written after the set's images
 //                                and index lines, so it is the commit record of the set.
+//   <session>/backgrounds.csv    the silhouette backgrounds the session was tracked with, one line
+//                                each, written after its file: from_sequence,camera,file. Camera
+//                                `camera`'s frames with camera_sequence >= from_sequence were
+//                                extracted against cam<i>/<file> (an OpenCV FileStorage background
+//                                model, tracker/vision/background_model.h) until the next line of
+//                                that camera; an empty file: thresholded from then on. Absent in
+//                                sessions recorded without a background (and older ones).
 //
 // Plain PNG and CSV: every image tool, ffmpeg (-i cam0/%06d.png) and spreadsheet reads them.
 #pragma once
@@ -35,6 +42,8 @@ inline constexpr const char* kIndexFile = "index.csv";
 inline constexpr const char* kIndexHeader =
     "set_sequence,camera_sequence,timestamp_ns,dropped_before,corrupt,file";
 inline constexpr const char* kSetsHeader = "set_sequence,timestamp_ns,present";
+inline constexpr const char* kBackgroundsFile = "backgrounds.csv";
+inline constexpr const char* kBackgroundsHeader = "from_sequence,camera,file";
 inline constexpr int kSessionFormatVersion = 1;
 
 // Pixel formats a session stores, as FourCC names like VideoMode::pixel_format.
@@ -79,6 +88,13 @@ struct SetRecord {
   std::string present;  // '1' where the camera has a frame in this set
 };
 
+// One background change of one camera (backgrounds.csv).
+struct BackgroundRecord {
+  uint64_t from_sequence = 0;  // the camera's first frame (camera_sequence) it applies to
+  int camera = 0;
+  std::string file;  // in the camera's directory; empty: no background from then on
+};
+
 // "cam<i>": the camera's directory inside the session.
 std::string cameraDirectoryName(int camera);
 // CV type a pixel format stores, or -1 if the format is not one a session can hold.
@@ -86,9 +102,11 @@ int cvTypeOfPixelFormat(const std::string& pixel_format);
 
 std::string formatIndexLine(const IndexRecord& record);  // no trailing newline
 std::string formatSetLine(const SetRecord& record);
+std::string formatBackgroundLine(const BackgroundRecord& record);
 // Parse one line (no newline); the error names the bad column, not the file.
 Expected<IndexRecord> parseIndexLine(const std::string& line);
 Expected<SetRecord> parseSetLine(const std::string& line, std::size_t camera_count);
+Expected<BackgroundRecord> parseBackgroundLine(const std::string& line, std::size_t camera_count);
 
 std::string emitManifest(const SessionManifest& manifest);
 // `source` names the file in errors: "<source>: <field>: <reason>".

@@ -77,6 +77,52 @@ fs::path SessionReader::imagePath(int camera, const IndexRecord& record) const {
   return dir_ / cameraDirectoryName(camera) / record.file;
 }
 
+Status SessionReader::loadBackgrounds() {
+  const fs::path path = dir_ / kBackgroundsFile;
+  std::error_code error;
+  if (!fs::exists(path, error)) return Status::Ok();  // recorded without (or before) backgrounds
+  Expected<CsvFile> file = readCsv(path, kBackgroundsHeader);
+  if (!file.ok()) return Status::Error(file.error());
+  if (file.value().truncated_tail)
+    notes_.push_back(path.string() + ": dropped a truncated last line");
+  const std::size_t camera_count = manifest_.cameras.size();
+  for (const auto& [number, line] : file.value().lines) {
+    const std::string where = path.string() + ":" + std::to_string(number) + ": ";
+    Expected<BackgroundRecord> parsed = parseBackgroundLine(line, camera_count);
+    if (!parsed.ok()) return Status::Error(where + parsed.error());
+    const BackgroundRecord& record = parsed.value();
+    for (const SessionBackground& earlier : backgrounds_) {
+      if (earlier.camera == record.camera && earlier.from_sequence > record.from_sequence)
+        return Status::Error(where + "from_sequence " + std::to_string(record.from_sequence) +
+                             " goes back (camera " + std::to_string(record.camera) + ")");
+    }
+    SessionBackground background{record.from_sequence, record.camera, "", nullptr};
+    if (!record.file.empty()) {
+      const fs::path model_path = dir_ / cameraDirectoryName(record.camera) / record.file;
+      BackgroundModel model;
+      try {
+        model = loadBackground(model_path.string());
+      } catch (const std::exception& e) {
+        return Status::Error(where + e.what());
+      }
+      const SessionCamera& camera = manifest_.cameras[static_cast<std::size_t>(record.camera)];
+      const int channels = camera.pixel_format == kPixelGray ? 1 : 3;
+      if (model.size() != cv::Size(camera.width, camera.height) || model.channels() != channels) {
+        return Status::Error(where + model_path.string() + " is " +
+                             std::to_string(model.size().width) + "x" +
+                             std::to_string(model.size().height) + " with " +
+                             std::to_string(model.channels()) + " channel(s), camera " +
+                             std::to_string(record.camera) + " is " + std::to_string(camera.width) +
+                             "x" + std::to_string(camera.height) + " " + camera.pixel_format);
+      }
+      background.file = cameraDirectoryName(record.camera) + "/" + record.file;
+      background.model = std::make_shared<const BackgroundModel>(std::move(model));
+    }
+    backgrounds_.push_back(std::move(background));
+  }
+  return Status::Ok();
+}
+
 Status SessionReader::load(const SessionReadOptions& options) {
   const fs::path manifest_path = dir_ / kManifestFile;
   std::ifstream manifest_file(manifest_path);
@@ -107,6 +153,8 @@ Status SessionReader::load(const SessionReadOptions& options) {
       return Status::Error(e.what());
     }
   }
+
+  if (Status status = loadBackgrounds(); !status.ok()) return status;
 
   // Each camera's records by set sequence.
   std::vector<std::map<uint64_t, IndexRecord>> records(camera_count);

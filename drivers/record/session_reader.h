@@ -14,6 +14,7 @@
 #include "drivers/status.h"
 #include "tracker/body_model.h"
 #include "tracker/camera.h"
+#include "tracker/vision/background_model.h"
 
 namespace mocap {
 
@@ -22,6 +23,14 @@ struct SessionSet {
   uint64_t sequence = 0;
   int64_t timestamp_ns = 0;
   std::vector<std::optional<IndexRecord>> frames;
+};
+
+// One camera's silhouette background from one of its frames on (backgrounds.csv), loaded.
+struct SessionBackground {
+  uint64_t from_sequence = 0;  // the camera's first frame (camera_sequence) it applies to
+  int camera = 0;
+  std::string file;  // its path in the session, "cam<i>/<file>"; empty: none
+  std::shared_ptr<const BackgroundModel> model;  // null: none from then on (thresholded)
 };
 
 struct SessionReadOptions {
@@ -37,7 +46,8 @@ class SessionReader {
   // calibration or body model, an index line that does not parse, a set whose frame has no index
   // line, a missing or truncated image, an image whose size or type is not the manifest's. A
   // truncated last line of an index or of sets.csv (a crash mid-append) is dropped and noted in
-  // notes().
+  // notes(). So is backgrounds.csv's; a background file that does not load, or does not fit its
+  // camera, fails the open.
   static Expected<std::unique_ptr<SessionReader>> open(const std::filesystem::path& dir,
                                                        SessionReadOptions options = {});
 
@@ -52,6 +62,9 @@ class SessionReader {
     return manifest_.tracker_settings;
   }
   const std::vector<SessionSet>& sets() const { return sets_; }
+  // The backgrounds the session was tracked with, in recorded order (per camera, from_sequence
+  // never decreases); empty if none (or an older session).
+  const std::vector<SessionBackground>& backgrounds() const { return backgrounds_; }
   // What was tolerated at open (dropped partial lines, uncommitted frames), one line each.
   const std::vector<std::string>& notes() const { return notes_; }
 
@@ -65,12 +78,14 @@ class SessionReader {
   SessionReader() = default;
   Status load(const SessionReadOptions& options);
   Status checkImage(int camera, const IndexRecord& record, bool decode) const;
+  Status loadBackgrounds();
 
   std::filesystem::path dir_;
   SessionManifest manifest_;
   Rig rig_;
   std::optional<BodyModel> body_model_;
   std::vector<SessionSet> sets_;
+  std::vector<SessionBackground> backgrounds_;
   std::vector<std::string> notes_;
 };
 

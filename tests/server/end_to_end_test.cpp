@@ -8,6 +8,8 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <map>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -15,8 +17,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "drivers/builtin_drivers.h"
+#include "drivers/record/session_reader.h"
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
 #include "server/tls_test_support.h"
@@ -253,10 +257,10 @@ grpc::StatusCode startRecording(v1::MocapService::Stub& stub, const std::string&
   return stub.StartRecording(&context, request, &state).error_code();
 }
 
-// Records at least `sets` frame sets into `root`/`name`. A recording starts once every camera has
-// sent a frame, and a first pose does not prove it (a set may lack a camera that is late, as under
-// a loaded machine): the start is retried for up to 5 s while the daemon says so.
-void record(v1::MocapService::Stub& stub, const std::string& name, uint64_t sets) {
+// Starts recording into `root`/`name`. A recording starts once every camera has sent a frame,
+// and a first pose does not prove it (a set may lack a camera that is late, as under a loaded
+// machine): the start is retried for up to 5 s while the daemon says so.
+void startRecordingWhenReady(v1::MocapService::Stub& stub, const std::string& name) {
   grpc::StatusCode started = startRecording(stub, name);
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   while (started == grpc::StatusCode::FAILED_PRECONDITION &&
@@ -265,6 +269,10 @@ void record(v1::MocapService::Stub& stub, const std::string& name, uint64_t sets
     started = startRecording(stub, name);
   }
   ASSERT_EQ(started, grpc::StatusCode::OK);
+}
+
+// Waits until the recording under way holds at least `sets` frame sets.
+void waitForRecordedSets(v1::MocapService::Stub& stub, uint64_t sets) {
   for (;;) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     grpc::ClientContext context;
@@ -273,6 +281,12 @@ void record(v1::MocapService::Stub& stub, const std::string& name, uint64_t sets
     ASSERT_TRUE(status.recording().active());
     if (status.recording().frame_sets() >= sets) break;
   }
+}
+
+// Records at least `sets` frame sets into `root`/`name`.
+void record(v1::MocapService::Stub& stub, const std::string& name, uint64_t sets) {
+  ASSERT_NO_FATAL_FAILURE(startRecordingWhenReady(stub, name));
+  ASSERT_NO_FATAL_FAILURE(waitForRecordedSets(stub, sets));
   grpc::ClientContext context;
   v1::RecordingState state;
   ASSERT_TRUE(stub.StopRecording(&context, {}, &state).ok());
@@ -339,9 +353,10 @@ TEST_F(EndToEndTest, CaptureBackgroundLearnsWhilePosesFlow) {
 }
 
 // The poses a replay of `session` publishes, frame sequence and DOF vector (and, if asked, its
-// status at the end).
+// status at the end; every frame set's silhouettes go to `masks`).
 std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& session,
-                                                             PipelineStatus* end_status = nullptr) {
+                                                             PipelineStatus* end_status = nullptr,
+                                                             Pipeline::MaskObserver masks = {}) {
   ServerConfig config = test::sceneConfig();
   config.replay_directory = session.string();
   config.as_fast_as_possible = true;
@@ -353,6 +368,7 @@ std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& ses
     poses.emplace_back(pose.frame_sequence,
                        std::vector<double>(pose.dofs.data(), pose.dofs.data() + pose.dofs.size()));
   });
+  if (masks) server.value()->pipeline().setMaskObserver(std::move(masks));
   EXPECT_TRUE(server.value()->start().ok());
   server.value()->pipeline().waitForReplayEnd();
   if (end_status) *end_status = server.value()->pipeline().status();
@@ -673,18 +689,81 @@ TEST_F(EndToEndTest, ASceneMotionThatDoesNotLoadStopsTheStartUpNamingIt) {
   fs::remove_all(dir);
 }
 
+// Per camera and frame (its camera sequence), the silhouettes a pipeline extracted.
+class SilhouetteLog {
+ public:
+  Pipeline::MaskObserver observer() {
+    return [this](const FrameSet& set, const std::vector<SilhouetteMask>& masks) {
+      std::lock_guard lock(mutex_);
+      for (std::size_t c = 0; c < set.frames.size() && c < masks.size(); ++c)
+        if (set.frames[c]) masks_[{c, set.frames[c]->sequence}] = masks[c].toMat();
+    };
+  }
+  const cv::Mat* find(std::size_t camera, uint64_t sequence) const {
+    std::lock_guard lock(mutex_);
+    const auto found = masks_.find({camera, sequence});
+    return found == masks_.end() ? nullptr : &found->second;
+  }
+  std::size_t size() const {
+    std::lock_guard lock(mutex_);
+    return masks_.size();
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::pair<std::size_t, uint64_t>, cv::Mat> masks_;
+};
+
+double intersectionOverUnion(const cv::Mat& a, const cv::Mat& b) {
+  const double both = cv::countNonZero(a & b), either = cv::countNonZero(a | b);
+  return either == 0 ? 1.0 : both / either;
+}
+
+// The median over a recorded session's frames of the agreement (intersection over union) of two
+// pipelines' silhouettes of the same frame.
+double medianAgreement(const fs::path& session, const SilhouetteLog& a, const SilhouetteLog& b) {
+  auto reader = SessionReader::open(session);
+  EXPECT_TRUE(reader.ok()) << reader.error();
+  std::vector<double> agreement;
+  if (!reader.ok()) return 0;
+  for (const SessionSet& set : reader.value()->sets()) {
+    for (std::size_t c = 0; c < set.frames.size(); ++c) {
+      if (!set.frames[c]) continue;
+      const cv::Mat* mask_a = a.find(c, set.frames[c]->camera_sequence);
+      const cv::Mat* mask_b = b.find(c, set.frames[c]->camera_sequence);
+      EXPECT_TRUE(mask_a && mask_b)
+          << "camera " << c << " frame " << set.frames[c]->camera_sequence;
+      if (mask_a && mask_b) agreement.push_back(intersectionOverUnion(*mask_a, *mask_b));
+    }
+  }
+  if (agreement.empty()) return 0;
+  std::nth_element(agreement.begin(), agreement.begin() + agreement.size() / 2, agreement.end());
+  return agreement[agreement.size() / 2];
+}
+
+// Also: a session tracked on the scene's true silhouettes stores the empty scene as each camera's
+// background, so its replay, which has no truth, extracts silhouettes close to the truth.
 TEST_F(EndToEndTest, ReplayGivesIdenticalPosesEveryRun) {
   const fs::path root = freshDirectory("replay");
+  SilhouetteLog truth;
   {
     ServerConfig config = test::sceneConfig();
     config.recording_directory = fs::canonical(root).string();
     std::unique_ptr<MocapServer> server = startServer(config);
     ASSERT_TRUE(server);
+    server->pipeline().setMaskObserver(truth.observer());
     auto stub = test::connect(server->port());
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     record(*stub, "session", 100);
   }
-  const auto first = replay(root / "session");
+  SilhouetteLog extracted;
+  PipelineStatus status;
+  const auto first = replay(root / "session", &status, extracted.observer());
+  EXPECT_EQ(status.cameras[0].silhouettes,
+            "background recorded in the session (cam0/background_000000.yml)");
+  const double agreement = medianAgreement(root / "session", truth, extracted);
+  std::printf("replayed against true silhouettes, IoU median %.4f\n", agreement);
+  EXPECT_GE(agreement, 0.9);
   const auto second = replay(root / "session");
   EXPECT_GE(first.size(), 100u);
   ASSERT_EQ(first.size(), second.size());
@@ -698,9 +777,7 @@ TEST_F(EndToEndTest, ReplayGivesIdenticalPosesEveryRun) {
 TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   const fs::path root = freshDirectory("replay_body");
   {
-    ServerConfig config = test::sceneConfig();
-    config.body_model = "builtin:human";
-    config.tracker = TrackerSettings::forPeople();
+    ServerConfig config = walkingPersonConfig();
     config.tracker.evaluations = 600;  // not the replay configuration's 375, nor the people's 2000
     config.recording_directory = fs::canonical(root).string();
     std::unique_ptr<MocapServer> server = startServer(config);
@@ -723,6 +800,71 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   ASSERT_FALSE(poses.empty());
   for (const auto& [sequence, dofs] : poses) ASSERT_EQ(dofs.size(), 31u) << "frame " << sequence;
   EXPECT_EQ(status.evaluations_per_frame, 600 + 1);  // and the fit of the estimate
+  fs::remove_all(root);
+}
+
+// A session keeps the backgrounds its silhouettes were extracted against, the one in use when the
+// recording started and one captured during it, so a replay extracts the same silhouettes from the
+// recorded images instead of thresholding them.
+TEST_F(EndToEndTest, ReplayExtractsSilhouettesAgainstTheSessionsBackgrounds) {
+  const fs::path root = freshDirectory("replay_backgrounds");
+  SilhouetteLog live;
+  {
+    ServerConfig config = test::sceneConfig();
+    config.true_silhouettes = false;
+    config.recording_directory = fs::canonical(root).string();
+    std::unique_ptr<MocapServer> server = startServer(config);
+    ASSERT_TRUE(server);
+    server->pipeline().setMaskObserver(live.observer());
+    auto stub = test::connect(server->port());
+    v1::CaptureBackgroundResponse response;
+    ASSERT_TRUE(test::captureBackground(*stub, 10, response).ok());
+    ASSERT_NO_FATAL_FAILURE(startRecordingWhenReady(*stub, "session"));
+    ASSERT_NO_FATAL_FAILURE(waitForRecordedSets(*stub, 10));
+    ASSERT_TRUE(test::captureBackground(*stub, 10, response).ok());
+    ASSERT_NO_FATAL_FAILURE(waitForRecordedSets(*stub, 40));
+    grpc::ClientContext context;
+    v1::RecordingState state;
+    ASSERT_TRUE(stub->StopRecording(&context, {}, &state).ok());
+    server->shutdown();
+  }
+  // Per camera: the background in use at the start, from its first frame, and the one captured
+  // during the recording, from a later frame.
+  std::ifstream lines(root / "session" / kBackgroundsFile);
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, kBackgroundsHeader);
+  std::vector<BackgroundRecord> records;
+  while (std::getline(lines, line)) {
+    Expected<BackgroundRecord> record = parseBackgroundLine(line, 2);
+    ASSERT_TRUE(record.ok()) << line << ": " << record.error();
+    records.push_back(record.value());
+  }
+  ASSERT_EQ(records.size(), 4u);
+  for (int c = 0; c < 2; ++c) {
+    std::vector<uint64_t> from;
+    for (const BackgroundRecord& record : records)
+      if (record.camera == c) from.push_back(record.from_sequence);
+    ASSERT_EQ(from.size(), 2u) << "camera " << c;
+    EXPECT_EQ(from[0], 0u);
+    EXPECT_GT(from[1], 0u);
+  }
+
+  SilhouetteLog replayed;
+  PipelineStatus status;
+  replay(root / "session", &status, replayed.observer());
+  ASSERT_GE(replayed.size(), 80u);  // 40 sets of 2 cameras at the least
+  for (std::size_t c = 0; c < 2; ++c) {
+    EXPECT_THAT(status.cameras[c].silhouettes,
+                ::testing::StartsWith("background recorded in the session (cam" +
+                                      std::to_string(c) + "/background_0"));
+    EXPECT_THAT(status.cameras[c].silhouettes, ::testing::Not(::testing::HasSubstr("_000000")));
+  }
+  // Live silhouettes came from extractors that had adapted since their capture, the replayed ones
+  // from the model as captured: the same up to pixels at the threshold.
+  const double agreement = medianAgreement(root / "session", live, replayed);
+  std::printf("replayed against live silhouettes, IoU median %.4f\n", agreement);
+  EXPECT_GE(agreement, 0.98);
   fs::remove_all(root);
 }
 

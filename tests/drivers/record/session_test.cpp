@@ -224,7 +224,7 @@ TEST_F(SessionTest, StoresTheBodyModelAndTrackerSettingsItWasTrackedWith) {
   const std::vector<std::pair<std::string, std::string>> settings = {
       {"method", "factored"}, {"evaluations", "2000"}, {"refine", "0.4"}, {"refine_hold", "true"}};
   Recorder recorder(root_);
-  ASSERT_TRUE(recorder.open("with_body", rig(), cameras(kPixelGray), {&body, settings}).ok());
+  ASSERT_TRUE(recorder.open("with_body", rig(), cameras(kPixelGray), {&body, settings, {}}).ok());
   recorder.write(makeSet(0, CV_8UC1));
   ASSERT_TRUE(recorder.close().ok());
   Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(recorder.sessionPath());
@@ -245,7 +245,7 @@ TEST_F(SessionTest, StoresTheBodyModelAndTrackerSettingsItWasTrackedWith) {
 TEST_F(SessionTest, BadBodyModelIsNamed) {
   const BodyModel body = builtinHandModel();
   Recorder recorder(root_);
-  ASSERT_TRUE(recorder.open("bad_body", rig(), cameras(kPixelGray), {&body, {}}).ok());
+  ASSERT_TRUE(recorder.open("bad_body", rig(), cameras(kPixelGray), {&body, {}, {}}).ok());
   ASSERT_TRUE(recorder.close().ok());
   std::ofstream(recorder.sessionPath() / kBodyModelFile, std::ios::trunc)
       << "name: hand\nsegments:\n  - name: palm\n    shape: {type: blob}\n";
@@ -260,10 +260,120 @@ TEST_F(SessionTest, BadBodyModelIsNamed) {
 
 TEST_F(SessionTest, TrackerSettingsThatAreNotAMapOfValuesAreNamed) {
   Recorder recorder(root_);
-  ASSERT_TRUE(recorder.open("bad_tracker", rig(), cameras(kPixelGray), {nullptr, {{"evaluations", "800"}}}).ok());
+  ASSERT_TRUE(
+      recorder
+          .open("bad_tracker", rig(), cameras(kPixelGray), {nullptr, {{"evaluations", "800"}}, {}})
+          .ok());
   ASSERT_TRUE(recorder.close().ok());
   editManifest(recorder.sessionPath(), "evaluations: 800", "evaluations: [800, 900]");
   EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("manifest.yaml: tracker.evaluations: expected a single value"));
+}
+
+// A background model of the test cameras' size whose pixels say which one it is.
+std::shared_ptr<const BackgroundModel> background(float level, int type) {
+  const int channels = type == CV_8UC1 ? 1 : 3;
+  BackgroundModel model{cv::Mat(kHeight, kWidth, CV_32FC(channels), cv::Scalar::all(level)),
+                        cv::Mat(kHeight, kWidth, CV_32FC(channels), cv::Scalar::all(2.5))};
+  return std::make_shared<const BackgroundModel>(std::move(model));
+}
+
+TEST_F(SessionTest, StoresTheBackgroundsItsSilhouettesWereExtractedAgainst) {
+  Recorder recorder(root_);
+  // Camera 0 has a background from the start, camera 1 none.
+  ASSERT_TRUE(recorder
+                  .open("backgrounds", rig(), cameras(kPixelGray),
+                        {nullptr, {}, {background(40, CV_8UC1), nullptr}})
+                  .ok());
+  for (int n = 0; n < 3; ++n) recorder.write(makeSet(n, CV_8UC1));
+  recorder.writeBackground(1, 103, background(90, CV_8UC1));  // captured during the recording
+  recorder.writeBackground(0, 3, background(91, CV_8UC1));
+  for (int n = 3; n < 5; ++n) recorder.write(makeSet(n, CV_8UC1));
+  recorder.writeBackground(0, 5, nullptr);  // its extraction failed: thresholded from frame 5
+  ASSERT_TRUE(recorder.close().ok());
+  EXPECT_EQ(recorder.stats().sets_written, 5u);
+
+  Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(recorder.sessionPath());
+  ASSERT_TRUE(reader.ok()) << reader.error();
+  const std::vector<SessionBackground>& stored = reader.value()->backgrounds();
+  ASSERT_EQ(stored.size(), 4u);
+  const struct {
+    uint64_t from;
+    int camera;
+    std::string file;
+    float level;  // of the mean; 0: no background
+  } expected[] = {{0, 0, "cam0/background_000000.yml", 40},
+                  {103, 1, "cam1/background_000103.yml", 90},
+                  {3, 0, "cam0/background_000003.yml", 91},
+                  {5, 0, "", 0}};
+  for (std::size_t i = 0; i < stored.size(); ++i) {
+    EXPECT_EQ(stored[i].from_sequence, expected[i].from) << i;
+    EXPECT_EQ(stored[i].camera, expected[i].camera) << i;
+    EXPECT_EQ(stored[i].file, expected[i].file) << i;
+    ASSERT_EQ(stored[i].model != nullptr, expected[i].level > 0) << i;
+    if (!stored[i].model) continue;
+    EXPECT_EQ(
+        cv::norm(stored[i].model->mean, background(expected[i].level, CV_8UC1)->mean, cv::NORM_INF),
+        0)
+        << i;
+    EXPECT_EQ(cv::norm(stored[i].model->stddev, background(0, CV_8UC1)->stddev, cv::NORM_INF), 0)
+        << i;
+  }
+}
+
+TEST_F(SessionTest, BadBackgroundsAreNamedWithTheirLine) {
+  const auto recordWithBackground = [&](const std::string& name) {
+    Recorder recorder(root_);
+    EXPECT_TRUE(recorder
+                    .open(name, rig(), cameras(kPixelGray),
+                          {nullptr, {}, {background(40, CV_8UC1), background(50, CV_8UC1)}})
+                    .ok());
+    recorder.write(makeSet(0, CV_8UC1));
+    EXPECT_TRUE(recorder.close().ok());
+    return recorder.sessionPath();
+  };
+  const fs::path lines = fs::path(kBackgroundsFile);
+  {
+    const fs::path dir = recordWithBackground("camera");
+    std::ofstream(dir / lines, std::ios::app) << "7,2,background_000000.yml\n";
+    EXPECT_THAT(
+        openError(dir),
+        HasSubstr("backgrounds.csv:4: camera '2' is not a camera of the session (2 cameras)"));
+  }
+  {
+    const fs::path dir = recordWithBackground("back");
+    std::ofstream(dir / lines, std::ios::app) << "9,1,background_000000.yml\n0,1,\n";
+    EXPECT_THAT(openError(dir),
+                HasSubstr("backgrounds.csv:5: from_sequence 0 goes back (camera 1)"));
+  }
+  {
+    const fs::path dir = recordWithBackground("missing");
+    fs::remove(dir / "cam1" / "background_000000.yml");
+    const std::string error = openError(dir);
+    EXPECT_THAT(error, HasSubstr("backgrounds.csv:3: "));
+    EXPECT_THAT(error, HasSubstr("cam1/background_000000.yml"));
+  }
+  {
+    const fs::path dir = recordWithBackground("colour");
+    saveBackground((dir / "cam0" / "background_000000.yml").string(), *background(40, CV_8UC3));
+    EXPECT_THAT(openError(dir),
+                HasSubstr("background_000000.yml is 64x48 with 3 channel(s), camera 0 "
+                          "is 64x48 GREY"));
+  }
+  {
+    const fs::path dir = recordWithBackground("escape");
+    std::ofstream(dir / lines, std::ios::app) << "3,0,../cam1/background_000000.yml\n";
+    EXPECT_THAT(openError(dir),
+                HasSubstr("file '../cam1/background_000000.yml' is not a file name"));
+  }
+  {  // a crash mid-append: the line is dropped and noted, the session opens
+    const fs::path dir = recordWithBackground("cut");
+    std::ofstream(dir / lines, std::ios::app) << "3,0,backgr";
+    Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(dir);
+    ASSERT_TRUE(reader.ok()) << reader.error();
+    EXPECT_EQ(reader.value()->backgrounds().size(), 2u);
+    EXPECT_THAT(reader.value()->notes(),
+                ::testing::Contains(HasSubstr("backgrounds.csv: dropped a truncated last line")));
+  }
 }
 
 TEST_F(SessionTest, BadIndexLineIsNamedWithItsLine) {
