@@ -310,8 +310,8 @@ class ConfigParser {
     config.source = source_;
     onlyKeys(root, "",
              {"cameras", "calibration", "body_model", "tracker", "sync", "listen",
-              "recording_directory", "background_directory", "silhouettes", "tls", "auth",
-              "log_level", "scene_motion", "scene_empty_seconds"});
+              "recording_directory", "background_directory", "silhouettes", "before_background",
+              "tls", "auth", "log_level", "scene_motion", "scene_empty_seconds"});
 
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
@@ -414,6 +414,13 @@ class ConfigParser {
       } else {
         fail(node, "silhouettes", "expected extracted or ground_truth, got '" + source + "'");
       }
+    }
+
+    if (const YAML::Node node = root["before_background"]) {
+      const std::string choice = text(node, "before_background");
+      if (choice != "wait" && choice != "threshold")
+        fail(node, "before_background", "expected wait or threshold, got '" + choice + "'");
+      config.threshold_before_background = choice == "threshold";
     }
 
     if (const YAML::Node tls = root["tls"]) {

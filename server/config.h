@@ -107,6 +107,11 @@ struct ServerConfig {
   // Fake scene only: hand the tracker the scene's true silhouettes (the demo measures tracking)
   // instead of extracting them from the rendered images (false: YAML `silhouettes: extracted`).
   bool true_silhouettes = true;
+  // Extracted silhouettes of a camera with no background yet (none captured or loaded; a replayed
+  // session that stores none): false (YAML `before_background: wait`) gives the tracker nothing
+  // until every camera has one, so no poses; true (`threshold`) thresholds the images, for a lit
+  // subject against a dark background.
+  bool threshold_before_background = false;
   std::string tls_cert_file;  // both or neither
   std::string tls_key_file;
   std::string bearer_token;  // empty: no token required

@@ -1,6 +1,7 @@
 // The capture-to-pose pipeline: stage threads, hand-offs, the recorder tap and the meters.
 #include "server/pipeline.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -82,10 +83,11 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   backgrounds_in_use_.resize(cameras_.size());
   next_replayed_backgrounds_.assign(cameras_.size(), 0);
   next_frame_sequences_.assign(cameras_.size(), 0);
-  silhouette_sources_.assign(cameras_.size(), ground_truth_ ? "ground truth"
-                                              : replay_ && replay_->backgrounds().empty()
-                                                  ? "threshold (the session stores no background)"
-                                                  : "threshold");
+  silhouette_sources_.assign(cameras_.size(),
+                             ground_truth_ ? "ground truth"
+                             : replay_ && replay_->backgrounds().empty()
+                                 ? withoutBackground("the session stores no background")
+                                 : withoutBackground(""));
   if (!config_.background_directory.empty() && !replay_) loadBackgrounds();
 
   SyncConfig sync;
@@ -164,6 +166,13 @@ std::string Pipeline::backgroundFile(std::size_t camera) const {
       .string();
 }
 
+std::string Pipeline::withoutBackground(const std::string& why) const {
+  std::string source = config_.threshold_before_background
+                           ? "threshold"
+                           : "none: waiting for a background (CaptureBackground, nobody in view)";
+  return why.empty() ? source : source + " (" + why + ")";
+}
+
 void Pipeline::setSilhouetteSource(std::size_t camera, std::string source) {
   if (ground_truth_) return;  // the scene's true silhouettes are used whatever the background
   std::lock_guard lock(silhouette_mutex_);
@@ -190,13 +199,15 @@ void Pipeline::loadBackgrounds() {
     std::error_code error;
     if (!std::filesystem::exists(path, error)) continue;
     const std::string fallback =
-        "; cameras[" + std::to_string(c) + "] is thresholded until the next CaptureBackground";
+        "; cameras[" + std::to_string(c) + "] is " +
+        (config_.threshold_before_background ? "thresholded" : "not tracked") +
+        " until the next CaptureBackground";
     BackgroundModel model;
     try {
       model = loadBackground(path);
     } catch (const std::exception& e) {
       warnBackground("background file unusable: " + std::string(e.what()) + fallback);
-      setSilhouetteSource(c, "threshold (" + path + " unusable)");
+      setSilhouetteSource(c, withoutBackground(path + " unusable"));
       continue;
     }
     const CameraConfig& camera = cameras_[c].config;
@@ -208,7 +219,7 @@ void Pipeline::loadBackgrounds() {
           " channel(s) but cameras[" + std::to_string(c) + "] is " + std::to_string(camera.width) +
           "x" + std::to_string(camera.height) + (camera.pixel_format == "GREY" ? " gray" : "") +
           fallback);
-      setSilhouetteSource(c, "threshold (" + path + " does not fit this camera)");
+      setSilhouetteSource(c, withoutBackground(path + " does not fit this camera"));
       continue;
     }
     useBackground(c, std::make_shared<const BackgroundModel>(std::move(model)));
@@ -431,7 +442,7 @@ void Pipeline::replayBackgrounds(std::size_t camera, uint64_t frame_sequence) {
     useBackground(camera, line.model);  // a recording of the replay keeps it too
     setSilhouetteSource(camera, line.model
                                     ? "background recorded in the session (" + line.file + ")"
-                                    : "threshold (the session recorded none from here)");
+                                    : withoutBackground("the session recorded none from here"));
   }
 }
 
@@ -463,6 +474,8 @@ void Pipeline::maskLoop() {
   for (std::size_t c = 0; c < cameras_.size(); ++c)
     latest[c] = SilhouetteMask(cv::Mat::zeros(rig_[c].height, rig_[c].width, CV_8UC1));
   std::vector<bool> size_warned(cameras_.size(), false);
+  // Per camera: whether `latest` holds silhouettes (the truth, extracted or thresholded ones).
+  std::vector<bool> has_silhouettes(cameras_.size(), ground_truth_ != nullptr);
   std::unique_ptr<BackgroundCapture> capture;
   while (true) {
     if (!capture) {
@@ -515,15 +528,25 @@ void Pipeline::maskLoop() {
       if (replay_) replayBackgrounds(c, set->frames[c]->sequence);
       if (extractors_[c] && !extractors_[c]->extract(image)) {
         // A background of another format (the camera's pixel format changed since it was saved):
-        // thresholding beats silhouettes frozen at the last good frame.
+        // no silhouettes, or thresholded ones, beat silhouettes frozen at the last good frame.
         logWarning() << "camera " << c
-                     << ": silhouette extraction failed: " << extractors_[c]->lastError()
-                     << "; thresholded until the next capture";
-        setSilhouetteSource(c,
-                            "threshold (background unusable: " + extractors_[c]->lastError() + ")");
+                     << ": silhouette extraction failed: " << extractors_[c]->lastError() << "; "
+                     << (config_.threshold_before_background ? "thresholded" : "not tracked")
+                     << " until the next capture";
+        setSilhouetteSource(
+            c, withoutBackground("background unusable: " + extractors_[c]->lastError()));
         useBackground(c, nullptr);
       }
-      latest[c] = extractors_[c] ? extractors_[c]->silhouette() : thresholdMask(image);
+      if (extractors_[c] || config_.threshold_before_background) {
+        latest[c] = extractors_[c] ? extractors_[c]->silhouette() : thresholdMask(image);
+        has_silhouettes[c] = true;
+      } else {
+        has_silhouettes[c] = false;
+      }
+    }
+    if (std::find(has_silhouettes.begin(), has_silhouettes.end(), false) != has_silhouettes.end()) {
+      tracking_ = false;  // nothing to track until every camera has a background
+      continue;
     }
     if (mask_observer_) mask_observer_(*set, latest);
     masks.masks = latest;

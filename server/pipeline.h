@@ -231,6 +231,8 @@ class Pipeline {
   // set if a file could not be written).
   void saveBackgrounds(std::vector<std::shared_ptr<const BackgroundModel>> models,
                        BackgroundResult learned, std::function<void(const BackgroundResult&)> done);
+  // The silhouette source of a camera without a background (config's before_background), and why.
+  std::string withoutBackground(const std::string& why) const;
   // What status() reports as camera's silhouette source; ignored when the scene gives the truth.
   void setSilhouetteSource(std::size_t camera, std::string source);
   void warnBackground(const std::string& warning);

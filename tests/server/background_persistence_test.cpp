@@ -114,7 +114,8 @@ TEST_F(BackgroundPersistenceTest, CapturedBackgroundSurvivesRestart) {
     Expected<std::unique_ptr<MocapServer>> created = MocapServer::create(config);
     ASSERT_TRUE(created.ok()) << created.error();
     MocapServer& server = *created.value();
-    EXPECT_EQ(server.pipeline().status().cameras[0].silhouettes, "threshold");
+    EXPECT_EQ(server.pipeline().status().cameras[0].silhouettes,
+              "none: waiting for a background (CaptureBackground, nobody in view)");
     ASSERT_TRUE(server.start().ok());
     auto stub = test::connect(server.port());
     v1::CaptureBackgroundResponse response;
@@ -201,17 +202,55 @@ TEST_F(BackgroundPersistenceTest, UnsavableBackgroundIsInUseButTheRpcSaysSo) {
   EXPECT_FALSE(fs::exists(dir));
 }
 
-TEST_F(BackgroundPersistenceTest, UnusableFilesAreNamedAndThresholded) {
-  const fs::path dir = freshDirectory("unusable");
-  // Camera 0: not a FileStorage file at all. Camera 1: a good model of another camera size. And a
-  // model no configured camera saves to.
+// A fresh directory of backgrounds the scene's cameras cannot use. Camera 0: not a FileStorage file
+// at all. Camera 1: a good model of another camera size. And a model no configured camera saves to.
+fs::path unusableBackgrounds(const std::string& name) {
+  const fs::path dir = freshDirectory(name);
   std::ofstream(dir / "fake-scene_0.background.yml") << "%YAML:1.0\n---\nmean: [ 1, 2\n";
   BackgroundModel small{cv::Mat(48, 64, CV_32FC3, cv::Scalar::all(100)),
                         cv::Mat(48, 64, CV_32FC3, cv::Scalar::all(2))};
   saveBackground((dir / "fake-scene_1.background.yml").string(), small);
   saveBackground((dir / "fake-scene_7.background.yml").string(), small);
+  return dir;
+}
 
-  const ServerConfig config = extractingConfig(dir);
+// By default a camera without a background gives the tracker nothing, so nothing is published
+// until a capture; the status says why.
+TEST_F(BackgroundPersistenceTest, UnusableFilesAreNamedAndNothingIsTrackedUntilACapture) {
+  const fs::path dir = unusableBackgrounds("unusable_wait");
+  Expected<std::unique_ptr<MocapServer>> created = MocapServer::create(extractingConfig(dir));
+  ASSERT_TRUE(created.ok()) << created.error();
+  MocapServer& server = *created.value();
+  const std::string file0 = (dir / "fake-scene_0.background.yml").string();
+  PipelineStatus status = server.pipeline().status();
+  ASSERT_EQ(status.background_warnings.size(), 3u);
+  EXPECT_THAT(status.background_warnings[0], HasSubstr("cameras[0] is not tracked until the next"));
+  EXPECT_EQ(status.cameras[0].silhouettes,
+            "none: waiting for a background (CaptureBackground, nobody in view) (" + file0 +
+                " unusable)");
+  MaskRecorder recorder(5);
+  server.pipeline().setMaskObserver(
+      [&](const FrameSet& set, const std::vector<SilhouetteMask>& masks) {
+        recorder.observe(set, masks);
+      });
+  ASSERT_TRUE(server.start().ok());
+  EXPECT_TRUE(recorder.take(std::chrono::seconds(2)).empty());  // 50 frame sets came meanwhile
+  status = server.pipeline().status();
+  EXPECT_EQ(status.poses_published, 0u);
+  EXPECT_FALSE(status.tracking);
+  auto stub = test::connect(server.port());
+  v1::CaptureBackgroundResponse response;
+  ASSERT_TRUE(test::captureBackground(*stub, 5, response).ok());
+  EXPECT_EQ(recorder.take(std::chrono::seconds(30)).size(), 5u);
+  EXPECT_EQ(server.pipeline().status().cameras[0].silhouettes, "background captured");
+  server.shutdown();
+  fs::remove_all(dir);
+}
+
+TEST_F(BackgroundPersistenceTest, UnusableFilesAreNamedAndThresholdedWhenTheConfigurationSaysSo) {
+  const fs::path dir = unusableBackgrounds("unusable");
+  ServerConfig config = extractingConfig(dir);
+  config.threshold_before_background = true;
   Expected<std::unique_ptr<MocapServer>> created = MocapServer::create(config);
   ASSERT_TRUE(created.ok()) << created.error();
   MocapServer& server = *created.value();

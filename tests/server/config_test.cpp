@@ -351,6 +351,14 @@ TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {
       cameras + "silhouettes: extracted\nbackground_directory: .\n", "test.yaml", base.string());
   EXPECT_FALSE(extracted.true_silhouettes);
   EXPECT_EQ(extracted.background_directory, std::filesystem::canonical(base).string());
+  // Until a background exists: nothing to track by default, thresholded images if asked.
+  EXPECT_FALSE(extracted.threshold_before_background);
+  EXPECT_TRUE(parseConfig(cameras + "before_background: threshold\n", "test.yaml", ".")
+                  .threshold_before_background);
+  EXPECT_FALSE(parseConfig(cameras + "before_background: wait\n", "test.yaml", ".")
+                   .threshold_before_background);
+  EXPECT_THAT(errorOf(cameras + "before_background: guess\n"),
+              HasSubstr("test.yaml:3: before_background: expected wait or threshold, got 'guess'"));
 }
 
 }  // namespace

@@ -501,8 +501,7 @@ TEST_F(EndToEndTest, TracksAPersonOnExtractedSilhouettesAfterTheEmptyRoomIsLearn
 
   auto stub = test::connect(server->port());
   const std::vector<v1::Pose> poses = readPoses(*stub, 100, [&](const v1::Pose& pose) {
-    // Before the person is in view there is no truth to compare with (the tracker may have
-    // placed someone in the thresholded images before the background was learnt).
+    // Before the person is in view there is no truth to compare with.
     EXPECT_EQ(pose.has_reference_error_mm(), pose.frame_sequence() >= kEntranceFrame)
         << pose.frame_sequence();
     return pose.frame_sequence() >= kEntranceFrame;
