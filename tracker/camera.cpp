@@ -87,7 +87,8 @@ void saveRig(const std::string& path, const Rig& rig) {
 
 namespace {
 
-cv::Mat readMatrix(const cv::FileNode& node, const std::string& where, int rows, int cols) {
+// Any non-empty OpenCV matrix at `node` (OpenCV asserts on a malformed one: named here instead).
+cv::Mat readAnyMatrix(const cv::FileNode& node, const std::string& where) {
   if (node.empty()) throw std::runtime_error(where + ": missing");
   cv::Mat m;
   try {
@@ -96,6 +97,11 @@ cv::Mat readMatrix(const cv::FileNode& node, const std::string& where, int rows,
     throw std::runtime_error(where + ": not an OpenCV matrix");
   }
   if (m.empty()) throw std::runtime_error(where + ": not an OpenCV matrix");
+  return m;
+}
+
+cv::Mat readMatrix(const cv::FileNode& node, const std::string& where, int rows, int cols) {
+  cv::Mat m = readAnyMatrix(node, where);
   if (m.total() != static_cast<std::size_t>(rows * cols) ||
       (m.rows != rows && m.cols != rows)) {
     throw std::runtime_error(where + ": expected " + std::to_string(rows) + "x" +
@@ -142,9 +148,8 @@ Rig loadRig(const std::string& path) {
     if (c.fx <= 0 || c.fy <= 0)
       throw std::runtime_error(where + ".camera_matrix: focal lengths must be positive");
     if (!node["distortion_coefficients"].empty()) {
-      cv::FileNode dn = node["distortion_coefficients"];
-      cv::Mat d;
-      dn >> d;
+      cv::Mat d =
+          readAnyMatrix(node["distortion_coefficients"], where + ".distortion_coefficients");
       if (d.total() < 4 || d.total() > 5)
         throw std::runtime_error(where + ".distortion_coefficients: expected 4 or 5 values");
       d.convertTo(d, CV_64F);

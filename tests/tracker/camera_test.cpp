@@ -139,6 +139,12 @@ TEST(Camera, BadRigFilesAreRefusedWithTheField) {
   bad.replace(bad.find("R:"), 2, "Q:");
   EXPECT_THAT(loadError(bad), HasSubstr("camera_0.R: missing"));
 
+  // A matrix without its element type: OpenCV asserts while reading it, named here instead.
+  bad = good;
+  const std::size_t distortion = bad.find("distortion_coefficients");
+  bad.erase(bad.find("dt: d", distortion), 5);
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_0.distortion_coefficients: not an OpenCV matrix"));
+
   EXPECT_THAT(loadError("%YAML:1.0\n---\nfoo: 1\n"), HasSubstr("camera_count: missing"));
   EXPECT_THROW(loadRig("/nonexistent/rig.yaml"), std::runtime_error);
 }
