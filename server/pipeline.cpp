@@ -89,6 +89,12 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
                                  ? withoutBackground("the session stores no background")
                                  : withoutBackground(""));
   if (!config_.background_directory.empty() && !replay_) loadBackgrounds();
+  if (replay_ && replay_->hasTruth() && !reference_pose_) {
+    reference_pose_ = [session = replay_](uint64_t frame_sequence) {
+      const Eigen::VectorXd* truth = session->truth(frame_sequence);
+      return truth ? *truth : Eigen::VectorXd();
+    };
+  }
 
   SyncConfig sync;
   sync.camera_count = static_cast<int>(cameras_.size());
@@ -491,6 +497,12 @@ void Pipeline::maskLoop() {
       set = synchronizer_->pop(std::chrono::nanoseconds(0));
       if (!set) break;
     }
+    MaskSet masks{set->sequence, 0, set->timestamp_ns, {}};
+    for (const std::optional<Frame>& frame : set->frames) {
+      if (!frame) continue;
+      masks.frame_sequence = frame->sequence;
+      break;
+    }
     {
       std::lock_guard lock(recording_mutex_);
       for (std::size_t c = 0; c < set->frames.size() && c < cameras_.size(); ++c) {
@@ -498,9 +510,12 @@ void Pipeline::maskLoop() {
         camera_cv_types_[c] = set->frames[c]->image.type();
         next_frame_sequences_[c] = set->frames[c]->sequence + 1;
       }
-      if (recorder_) recorder_->write(*set);
+      if (recorder_) {
+        SetTruth truth{masks.frame_sequence, {}};
+        if (reference_pose_) truth.dofs = reference_pose_(masks.frame_sequence);
+        recorder_->write(*set, std::move(truth));
+      }
     }
-    MaskSet masks{set->sequence, set->timestamp_ns, {}};
     std::optional<uint64_t> truth_sequence;
     std::vector<cv::Mat> truth;
     for (std::size_t c = 0; c < cameras_.size(); ++c) {
@@ -594,7 +609,7 @@ void Pipeline::trackerLoop() {
     pose->spread = estimate.spread;
     if (!std::isnan(estimate.silhouette_fit)) pose->silhouette_fit = estimate.silhouette_fit;
     if (const Eigen::VectorXd reference =
-            reference_pose_ ? reference_pose_(masks->sequence) : Eigen::VectorXd();
+            reference_pose_ ? reference_pose_(masks->frame_sequence) : Eigen::VectorXd();
         reference.size() == static_cast<long>(model_.dofs.size())) {
       forwardKinematics(model_, reference_kinematics_, reference);
       const std::vector<Eigen::Vector3d> truth = pointPositions(model_, reference_kinematics_);
@@ -685,8 +700,11 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   }
   // Opening writes files: done outside the lock so the mask thread never waits on the disk.
   auto recorder = std::make_unique<Recorder>(config_.recording_directory);
-  const Status opened =
-      recorder->open(requested, rig_, cameras, {&model_, config_.tracker.keyValues(), backgrounds});
+  std::vector<std::string> truth_dofs;
+  if (reference_pose_)
+    for (const Dof& dof : model_.dofs) truth_dofs.push_back(dof.name);
+  const Status opened = recorder->open(
+      requested, rig_, cameras, {&model_, config_.tracker.keyValues(), backgrounds, truth_dofs});
   if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
   std::lock_guard lock(recording_mutex_);
   if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};

@@ -63,8 +63,9 @@ struct PipelineInputs {
   // deviation). A recording stores it as the camera's background, so a replay, which has no truth,
   // extracts silhouettes from the recorded images.
   std::vector<std::shared_ptr<const BackgroundModel>> scene_backgrounds;
-  // The true pose of a frame set, when the source knows it (the fake scene): published poses then
-  // carry their error against it. An empty vector: no subject in view then, no error.
+  // The true pose of a frame (the camera sequence of a set's first frame), when the source knows
+  // it (the fake scene; a replayed session that stores it): published poses then carry their error
+  // against it, and recordings store it. An empty vector: no subject in view then, no error.
   std::function<Eigen::VectorXd(uint64_t sequence)> reference_pose;
   // Where the subject starts; empty: the model's neutral pose.
   Eigen::VectorXd initial_pose;
@@ -195,6 +196,7 @@ class Pipeline {
  private:
   struct MaskSet {
     uint64_t sequence = 0;
+    uint64_t frame_sequence = 0;  // the camera sequence of the set's first frame
     int64_t timestamp_ns = 0;
     std::vector<SilhouetteMask> masks;
   };

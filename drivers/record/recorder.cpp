@@ -182,6 +182,17 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
     closeFiles();
     return Status::Error(message);
   }
+  truth_dof_count_ = tracking.truth_dofs.size();
+  if (!tracking.truth_dofs.empty()) {
+    const std::string truth_path = (session / kTruthFile).string();
+    const std::string header = truthHeader(tracking.truth_dofs) + "\n";
+    truth_fd_ = ::open(truth_path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (truth_fd_ < 0 || !writeAll(truth_fd_, header.data(), header.size())) {
+      const std::string message = errnoText("recorder: cannot create", truth_path);
+      closeFiles();
+      return Status::Error(message);
+    }
+  }
   session_ = session;
   cameras_ = cameras;
   for (std::size_t c = 0; c < tracking.backgrounds.size() && c < cameras.size(); ++c) {
@@ -210,7 +221,7 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   return Status::Ok();
 }
 
-void Recorder::write(const FrameSet& set) {
+void Recorder::write(const FrameSet& set, SetTruth truth) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!writer_.joinable() || closing_) return;
@@ -221,7 +232,7 @@ void Recorder::write(const FrameSet& set) {
       ++stats_.sets_dropped;
       return;
     }
-    queue_.push_back(set);
+    queue_.push_back({set, std::move(truth)});
   }
   queued_.notify_one();
 }
@@ -302,9 +313,9 @@ RecorderStats Recorder::stats() const {
 }
 
 void Recorder::writerLoop() {
-  FrameSet set;
-  while (nextJob(queue_, queued_, set)) {
-    if (writeSet(set)) {
+  QueuedSet queued;
+  while (nextJob(queue_, queued_, queued)) {
+    if (writeSet(queued)) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.sets_written;
     }
@@ -314,7 +325,8 @@ void Recorder::writerLoop() {
   }
 }
 
-bool Recorder::writeSet(const FrameSet& set) {
+bool Recorder::writeSet(const QueuedSet& queued) {
+  const FrameSet& set = queued.set;
   std::string present(cameras_.size(), '0');
   std::vector<int> accepted;
   uint64_t rejected = 0;
@@ -375,6 +387,17 @@ bool Recorder::writeSet(const FrameSet& set) {
     fail(errnoText("cannot append to", (session_ / kSetsFile).string()));
     return false;
   }
+  const Eigen::VectorXd& dofs = queued.truth.dofs;
+  if (truth_fd_ >= 0 && dofs.size() == static_cast<long>(truth_dof_count_)) {
+    const std::string truth =
+        formatTruthLine({queued.truth.frame_sequence,
+                         std::vector<double>(dofs.data(), dofs.data() + dofs.size())}) +
+        "\n";
+    if (!writeAll(truth_fd_, truth.data(), truth.size())) {
+      fail(errnoText("cannot append to", (session_ / kTruthFile).string()));
+      return false;
+    }
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   stats_.frames_written += records.size();
   return true;
@@ -415,6 +438,7 @@ void Recorder::syncIndexes() {
     if (files.index_fd >= 0) ::fdatasync(files.index_fd);
   }
   if (sets_fd_ >= 0) ::fdatasync(sets_fd_);
+  if (truth_fd_ >= 0) ::fdatasync(truth_fd_);
   last_index_sync_ns_ = monotonicNowNs();
 }
 
@@ -434,6 +458,8 @@ void Recorder::closeFiles() {
   sets_fd_ = -1;
   if (backgrounds_fd_ >= 0) ::close(backgrounds_fd_);
   backgrounds_fd_ = -1;
+  if (truth_fd_ >= 0) ::close(truth_fd_);
+  truth_fd_ = -1;
 }
 
 }  // namespace mocap

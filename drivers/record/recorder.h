@@ -58,6 +58,15 @@ struct SessionTracking {
   // Per camera, the silhouette background in use when the recording starts (stored in
   // backgrounds.csv from the camera's first frame); null or missing: none (thresholded).
   std::vector<std::shared_ptr<const BackgroundModel>> backgrounds;
+  // The DOF names of the true poses write() is given, in order (truth.csv's columns); empty: the
+  // source does not know the truth, no truth.csv.
+  std::vector<std::string> truth_dofs;
+};
+
+// The true pose of a set's frame, from a source that knows it (the fake scene).
+struct SetTruth {
+  uint64_t frame_sequence = 0;  // camera_sequence of the set's first frame
+  Eigen::VectorXd dofs;         // empty: the subject is not in view, nothing stored
 };
 
 // Thread use: open(), write(), close() and stats() from one owner thread (stats() from any).
@@ -77,9 +86,10 @@ class Recorder {
   Status open(const std::filesystem::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras,
               const SessionTracking& tracking = {});
 
-  // Queues a set (pixels shared, not copied). Never blocks on the disk: drops the set when the
-  // queue is full. Frames are matched to cameras by their index in FrameSet::frames.
-  void write(const FrameSet& set);
+  // Queues a set (pixels shared, not copied), with its true pose if the session stores the truth.
+  // Never blocks on the disk: drops the set when the queue is full. Frames are matched to cameras
+  // by their index in FrameSet::frames.
+  void write(const FrameSet& set, SetTruth truth = {});
 
   // Records that `camera`'s frames from camera_sequence `from_sequence` on are extracted against
   // `background` (null: none, thresholded). Never dropped, and stored on a thread of the
@@ -113,8 +123,13 @@ class Recorder {
   void backgroundWriterLoop();
   // Stores the model (if any), then appends its line to backgrounds.csv; false on an I/O error.
   bool storeBackground(BackgroundRecord record, const BackgroundModel* model);
-  // Writes one set: images, then index lines, then the commit line; false on an I/O error.
-  bool writeSet(const FrameSet& set);
+  struct QueuedSet {
+    FrameSet set;
+    SetTruth truth;
+  };
+  // Writes one set: images, then index lines, then the commit line, then its truth line; false
+  // on an I/O error.
+  bool writeSet(const QueuedSet& queued);
   bool writeImage(int camera, const std::vector<uint8_t>& png, std::string& file_name);
   void syncIndexes();
   void fail(const std::string& message);
@@ -127,12 +142,14 @@ class Recorder {
   std::vector<CameraFiles> files_;
   int sets_fd_ = -1;
   int backgrounds_fd_ = -1;
+  int truth_fd_ = -1;  // -1: no truth stored
+  std::size_t truth_dof_count_ = 0;
   int64_t last_index_sync_ns_ = 0;
 
   std::thread writer_;
   mutable std::mutex mutex_;
   std::condition_variable queued_;
-  std::deque<FrameSet> queue_;
+  std::deque<QueuedSet> queue_;
   std::thread background_writer_;
   std::condition_variable backgrounds_queued_;
   std::deque<BackgroundJob> background_queue_;

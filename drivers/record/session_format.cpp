@@ -2,7 +2,9 @@
 #include "drivers/record/session_format.h"
 
 #include <charconv>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <sstream>
 
 #include <opencv2/core.hpp>
@@ -98,6 +100,42 @@ Expected<BackgroundRecord> parseBackgroundLine(const std::string& line, std::siz
   if (!c[2].empty() && !isPlainFileName(c[2]))
     return Status::Error("file '" + c[2] + "' is not a file name in the camera directory");
   r.file = c[2];
+  return r;
+}
+
+std::string truthHeader(const std::vector<std::string>& dof_names) {
+  std::string header = "frame_sequence";
+  for (const std::string& name : dof_names) header += "," + name;
+  return header;
+}
+
+std::string formatTruthLine(const TruthRecord& r) {
+  std::string line = std::to_string(r.frame_sequence);
+  char value[32];
+  for (double dof : r.dofs) {
+    std::snprintf(value, sizeof value, ",%.17g", dof);
+    line += value;
+  }
+  return line;
+}
+
+Expected<TruthRecord> parseTruthLine(const std::string& line,
+                                     const std::vector<std::string>& dof_names) {
+  const std::vector<std::string> c = splitCsv(line);
+  if (c.size() != dof_names.size() + 1) {
+    return Status::Error("expected " + std::to_string(dof_names.size() + 1) + " columns, found " +
+                         std::to_string(c.size()));
+  }
+  TruthRecord r;
+  if (!parseNumber(c[0], r.frame_sequence))
+    return Status::Error("frame_sequence '" + c[0] + "' is not a number");
+  for (std::size_t d = 0; d < dof_names.size(); ++d) {
+    char* end = nullptr;
+    const double value = std::strtod(c[d + 1].c_str(), &end);
+    if (c[d + 1].empty() || end != c[d + 1].c_str() + c[d + 1].size() || !std::isfinite(value))
+      return Status::Error(dof_names[d] + ": '" + c[d + 1] + "' is not a finite number");
+    r.dofs.push_back(value);
+  }
   return r;
 }
 

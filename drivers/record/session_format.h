@@ -20,6 +20,11 @@
 //                                model, tracker/vision/background_model.h) until the next line of
 //                                that camera; an empty file: thresholded from then on. Absent in
 //                                sessions recorded without a background (and older ones).
+//   <session>/truth.csv          sessions of a source that knows the truth (the fake scene): one
+//                                line per committed set whose subject was in view, written after
+//                                its commit line: frame_sequence (camera_sequence of the set's
+//                                first frame) then the true value of each DOF of body.yaml, in its
+//                                order, the header naming them. Absent otherwise.
 //
 // Plain PNG and CSV: every image tool, ffmpeg (-i cam0/%06d.png) and spreadsheet reads them.
 #pragma once
@@ -44,6 +49,7 @@ inline constexpr const char* kIndexHeader =
 inline constexpr const char* kSetsHeader = "set_sequence,timestamp_ns,present";
 inline constexpr const char* kBackgroundsFile = "backgrounds.csv";
 inline constexpr const char* kBackgroundsHeader = "from_sequence,camera,file";
+inline constexpr const char* kTruthFile = "truth.csv";
 inline constexpr int kSessionFormatVersion = 1;
 
 // Pixel formats a session stores, as FourCC names like VideoMode::pixel_format.
@@ -95,6 +101,12 @@ struct BackgroundRecord {
   std::string file;  // in the camera's directory; empty: no background from then on
 };
 
+// The true pose of one set's frame (truth.csv).
+struct TruthRecord {
+  uint64_t frame_sequence = 0;  // camera_sequence of the set's first frame
+  std::vector<double> dofs;     // in the order of the header's names
+};
+
 // "cam<i>": the camera's directory inside the session.
 std::string cameraDirectoryName(int camera);
 // CV type a pixel format stores, or -1 if the format is not one a session can hold.
@@ -103,10 +115,14 @@ int cvTypeOfPixelFormat(const std::string& pixel_format);
 std::string formatIndexLine(const IndexRecord& record);  // no trailing newline
 std::string formatSetLine(const SetRecord& record);
 std::string formatBackgroundLine(const BackgroundRecord& record);
+std::string truthHeader(const std::vector<std::string>& dof_names);
+std::string formatTruthLine(const TruthRecord& record);  // values round-trip exactly
 // Parse one line (no newline); the error names the bad column, not the file.
 Expected<IndexRecord> parseIndexLine(const std::string& line);
 Expected<SetRecord> parseSetLine(const std::string& line, std::size_t camera_count);
 Expected<BackgroundRecord> parseBackgroundLine(const std::string& line, std::size_t camera_count);
+Expected<TruthRecord> parseTruthLine(const std::string& line,
+                                     const std::vector<std::string>& dof_names);
 
 std::string emitManifest(const SessionManifest& manifest);
 // `source` names the file in errors: "<source>: <field>: <reason>".

@@ -123,6 +123,29 @@ Status SessionReader::loadBackgrounds() {
   return Status::Ok();
 }
 
+Status SessionReader::loadTruth() {
+  const fs::path path = dir_ / kTruthFile;
+  std::error_code error;
+  if (!fs::exists(path, error)) return Status::Ok();
+  // Its columns are the stored body's DOFs, so the header is known only with the body.
+  if (!body_model_) return Status::Error(path.string() + ": the session stores no body model");
+  std::vector<std::string> names;
+  for (const Dof& dof : body_model_->dofs) names.push_back(dof.name);
+  Expected<CsvFile> file = readCsv(path, truthHeader(names));
+  if (!file.ok()) return Status::Error(file.error());
+  if (file.value().truncated_tail)
+    notes_.push_back(path.string() + ": dropped a truncated last line");
+  for (const auto& [number, line] : file.value().lines) {
+    Expected<TruthRecord> record = parseTruthLine(line, names);
+    if (!record.ok())
+      return Status::Error(path.string() + ":" + std::to_string(number) + ": " + record.error());
+    const std::vector<double>& dofs = record.value().dofs;
+    truth_[record.value().frame_sequence] =
+        Eigen::Map<const Eigen::VectorXd>(dofs.data(), static_cast<Eigen::Index>(dofs.size()));
+  }
+  return Status::Ok();
+}
+
 Status SessionReader::load(const SessionReadOptions& options) {
   const fs::path manifest_path = dir_ / kManifestFile;
   std::ifstream manifest_file(manifest_path);
@@ -155,6 +178,7 @@ Status SessionReader::load(const SessionReadOptions& options) {
   }
 
   if (Status status = loadBackgrounds(); !status.ok()) return status;
+  if (Status status = loadTruth(); !status.ok()) return status;
 
   // Each camera's records by set sequence.
   std::vector<std::map<uint64_t, IndexRecord>> records(camera_count);

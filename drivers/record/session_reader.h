@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -65,6 +66,13 @@ class SessionReader {
   // The backgrounds the session was tracked with, in recorded order (per camera, from_sequence
   // never decreases); empty if none (or an older session).
   const std::vector<SessionBackground>& backgrounds() const { return backgrounds_; }
+  // The true pose (the body model's DOFs) of the set whose first frame has camera_sequence
+  // `frame_sequence`; nullptr if the session does not know it (truth.csv absent or no line).
+  const Eigen::VectorXd* truth(uint64_t frame_sequence) const {
+    const auto found = truth_.find(frame_sequence);
+    return found == truth_.end() ? nullptr : &found->second;
+  }
+  bool hasTruth() const { return !truth_.empty(); }
   // What was tolerated at open (dropped partial lines, uncommitted frames), one line each.
   const std::vector<std::string>& notes() const { return notes_; }
 
@@ -79,6 +87,7 @@ class SessionReader {
   Status load(const SessionReadOptions& options);
   Status checkImage(int camera, const IndexRecord& record, bool decode) const;
   Status loadBackgrounds();
+  Status loadTruth();
 
   std::filesystem::path dir_;
   SessionManifest manifest_;
@@ -86,6 +95,7 @@ class SessionReader {
   std::optional<BodyModel> body_model_;
   std::vector<SessionSet> sets_;
   std::vector<SessionBackground> backgrounds_;
+  std::map<uint64_t, Eigen::VectorXd> truth_;
   std::vector<std::string> notes_;
 };
 

@@ -354,9 +354,9 @@ TEST_F(EndToEndTest, CaptureBackgroundLearnsWhilePosesFlow) {
 
 // The poses a replay of `session` publishes, frame sequence and DOF vector (and, if asked, its
 // status at the end; every frame set's silhouettes go to `masks`).
-std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& session,
-                                                             PipelineStatus* end_status = nullptr,
-                                                             Pipeline::MaskObserver masks = {}) {
+std::vector<std::pair<uint64_t, std::vector<double>>> replay(
+    const fs::path& session, PipelineStatus* end_status = nullptr,
+    Pipeline::MaskObserver masks = {}, std::vector<double>* reference_errors = nullptr) {
   ServerConfig config = test::sceneConfig();
   config.replay_directory = session.string();
   config.as_fast_as_possible = true;
@@ -367,6 +367,8 @@ std::vector<std::pair<uint64_t, std::vector<double>>> replay(const fs::path& ses
   server.value()->pipeline().setPoseObserver([&](const Pose& pose) {
     poses.emplace_back(pose.frame_sequence,
                        std::vector<double>(pose.dofs.data(), pose.dofs.data() + pose.dofs.size()));
+    if (reference_errors && pose.reference_error_mm)
+      reference_errors->push_back(*pose.reference_error_mm);
   });
   if (masks) server.value()->pipeline().setMaskObserver(std::move(masks));
   EXPECT_TRUE(server.value()->start().ok());
@@ -795,10 +797,18 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   // The replay's configuration names no body and no tracker keys: the session's own body (31
   // DOFs) is tracked, not the built-in hand (15), with the session's settings.
   PipelineStatus status;
-  const auto poses = replay(root / "session", &status);
+  std::vector<double> errors;
+  const auto poses = replay(root / "session", &status, {}, &errors);
   ASSERT_FALSE(poses.empty());
   for (const auto& [sequence, dofs] : poses) ASSERT_EQ(dofs.size(), 31u) << "frame " << sequence;
   EXPECT_EQ(status.evaluations_per_frame, 600 + 1);  // and the fit of the estimate
+  // The session stores the scene's truth, so every replayed pose has its error against it: the
+  // person found and tracked on silhouettes extracted against the stored empty room.
+  ASSERT_EQ(errors.size(), poses.size());
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  std::printf("replayed poses against the recorded truth: median %.1f mm over %zu\n",
+              errors[errors.size() / 2], errors.size());
+  EXPECT_LT(errors[errors.size() / 2], 100.0);
   fs::remove_all(root);
 }
 

@@ -27,6 +27,19 @@ using ::testing::HasSubstr;
 constexpr int kWidth = 64;
 constexpr int kHeight = 48;
 
+// What a session was tracked with, for Recorder::open (fields not given: none).
+SessionTracking tracked(const BodyModel* body,
+                        std::vector<std::pair<std::string, std::string>> settings = {},
+                        std::vector<std::shared_ptr<const BackgroundModel>> backgrounds = {},
+                        std::vector<std::string> truth_dofs = {}) {
+  SessionTracking tracking;
+  tracking.body = body;
+  tracking.tracker_settings = std::move(settings);
+  tracking.backgrounds = std::move(backgrounds);
+  tracking.truth_dofs = std::move(truth_dofs);
+  return tracking;
+}
+
 class SessionTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -224,7 +237,8 @@ TEST_F(SessionTest, StoresTheBodyModelAndTrackerSettingsItWasTrackedWith) {
   const std::vector<std::pair<std::string, std::string>> settings = {
       {"method", "factored"}, {"evaluations", "2000"}, {"refine", "0.4"}, {"refine_hold", "true"}};
   Recorder recorder(root_);
-  ASSERT_TRUE(recorder.open("with_body", rig(), cameras(kPixelGray), {&body, settings, {}}).ok());
+  ASSERT_TRUE(
+      recorder.open("with_body", rig(), cameras(kPixelGray), tracked(&body, settings)).ok());
   recorder.write(makeSet(0, CV_8UC1));
   ASSERT_TRUE(recorder.close().ok());
   Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(recorder.sessionPath());
@@ -245,7 +259,7 @@ TEST_F(SessionTest, StoresTheBodyModelAndTrackerSettingsItWasTrackedWith) {
 TEST_F(SessionTest, BadBodyModelIsNamed) {
   const BodyModel body = builtinHandModel();
   Recorder recorder(root_);
-  ASSERT_TRUE(recorder.open("bad_body", rig(), cameras(kPixelGray), {&body, {}, {}}).ok());
+  ASSERT_TRUE(recorder.open("bad_body", rig(), cameras(kPixelGray), tracked(&body)).ok());
   ASSERT_TRUE(recorder.close().ok());
   std::ofstream(recorder.sessionPath() / kBodyModelFile, std::ios::trunc)
       << "name: hand\nsegments:\n  - name: palm\n    shape: {type: blob}\n";
@@ -260,10 +274,10 @@ TEST_F(SessionTest, BadBodyModelIsNamed) {
 
 TEST_F(SessionTest, TrackerSettingsThatAreNotAMapOfValuesAreNamed) {
   Recorder recorder(root_);
-  ASSERT_TRUE(
-      recorder
-          .open("bad_tracker", rig(), cameras(kPixelGray), {nullptr, {{"evaluations", "800"}}, {}})
-          .ok());
+  ASSERT_TRUE(recorder
+                  .open("bad_tracker", rig(), cameras(kPixelGray),
+                        tracked(nullptr, {{"evaluations", "800"}}))
+                  .ok());
   ASSERT_TRUE(recorder.close().ok());
   editManifest(recorder.sessionPath(), "evaluations: 800", "evaluations: [800, 900]");
   EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("manifest.yaml: tracker.evaluations: expected a single value"));
@@ -282,7 +296,7 @@ TEST_F(SessionTest, StoresTheBackgroundsItsSilhouettesWereExtractedAgainst) {
   // Camera 0 has a background from the start, camera 1 none.
   ASSERT_TRUE(recorder
                   .open("backgrounds", rig(), cameras(kPixelGray),
-                        {nullptr, {}, {background(40, CV_8UC1), nullptr}})
+                        tracked(nullptr, {}, {background(40, CV_8UC1), nullptr}))
                   .ok());
   for (int n = 0; n < 3; ++n) recorder.write(makeSet(n, CV_8UC1));
   recorder.writeBackground(1, 103, background(90, CV_8UC1));  // captured during the recording
@@ -325,7 +339,7 @@ TEST_F(SessionTest, BadBackgroundsAreNamedWithTheirLine) {
     Recorder recorder(root_);
     EXPECT_TRUE(recorder
                     .open(name, rig(), cameras(kPixelGray),
-                          {nullptr, {}, {background(40, CV_8UC1), background(50, CV_8UC1)}})
+                          tracked(nullptr, {}, {background(40, CV_8UC1), background(50, CV_8UC1)}))
                     .ok());
     recorder.write(makeSet(0, CV_8UC1));
     EXPECT_TRUE(recorder.close().ok());
@@ -374,6 +388,54 @@ TEST_F(SessionTest, BadBackgroundsAreNamedWithTheirLine) {
     EXPECT_THAT(reader.value()->notes(),
                 ::testing::Contains(HasSubstr("backgrounds.csv: dropped a truncated last line")));
   }
+}
+
+// The true poses of a source that knows them come back exactly, keyed by the set's first frame.
+TEST_F(SessionTest, StoresTheTruePosesOfASourceThatKnowsThem) {
+  const BodyModel body = builtinHumanModel();
+  std::vector<std::string> names;
+  for (const Dof& dof : body.dofs) names.push_back(dof.name);
+  Recorder recorder(root_);
+  ASSERT_TRUE(
+      recorder.open("truth", rig(), cameras(kPixelGray), tracked(&body, {}, {}, names)).ok());
+  std::vector<Eigen::VectorXd> poses;
+  for (int n = 0; n < 4; ++n) {
+    poses.push_back(Eigen::VectorXd::Random(static_cast<Eigen::Index>(body.dofs.size())) / 3.0);
+    // Set 2 has its subject out of view: no truth.
+    recorder.write(makeSet(n, CV_8UC1),
+                   {static_cast<uint64_t>(n), n == 2 ? Eigen::VectorXd() : poses.back()});
+  }
+  ASSERT_TRUE(recorder.close().ok());
+  Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(recorder.sessionPath());
+  ASSERT_TRUE(reader.ok()) << reader.error();
+  EXPECT_TRUE(reader.value()->hasTruth());
+  for (uint64_t n = 0; n < 4; ++n) {
+    const Eigen::VectorXd* truth = reader.value()->truth(n);
+    ASSERT_EQ(truth != nullptr, n != 2) << n;
+    if (truth) {
+      EXPECT_EQ(*truth, poses[n]) << n;  // exactly: %.17g round-trips
+    }
+  }
+  EXPECT_EQ(reader.value()->truth(99), nullptr);
+  EXPECT_FALSE(SessionReader::open(record("without", CV_8UC1, 1)).value()->hasTruth());
+
+  const fs::path lines = recorder.sessionPath() / kTruthFile;
+  std::ofstream(lines, std::ios::app) << "7,0.5\n";
+  EXPECT_THAT(openError(recorder.sessionPath()),
+              HasSubstr("truth.csv:5: expected " + std::to_string(body.dofs.size() + 1) +
+                        " columns, found 2"));
+  std::string text;
+  {
+    std::ifstream in(lines);
+    std::getline(in, text);  // the header alone, then a bad value
+  }
+  std::string row = "7";
+  for (std::size_t d = 0; d < body.dofs.size(); ++d) row += d == 3 ? ",x" : ",0";
+  std::ofstream(lines, std::ios::trunc) << text << "\n" << row << "\n";
+  EXPECT_THAT(openError(recorder.sessionPath()),
+              HasSubstr("truth.csv:2: " + body.dofs[3].name + ": 'x' is not a finite number"));
+  std::ofstream(lines, std::ios::trunc) << "frame_sequence,a,b\n";
+  EXPECT_THAT(openError(recorder.sessionPath()), HasSubstr("truth.csv:1: header is"));
 }
 
 TEST_F(SessionTest, BadIndexLineIsNamedWithItsLine) {
