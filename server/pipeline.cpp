@@ -89,6 +89,12 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
                                  ? withoutBackground("the session stores no background")
                                  : withoutBackground(""));
   if (!config_.background_directory.empty() && !replay_) loadBackgrounds();
+  if (replay_ && replay_->backgrounds().empty() && !config_.threshold_before_background) {
+    logWarning() << "replay: " << replay_->path().string()
+                 << " stores no background (recorded before sessions kept them, or without one): "
+                    "nothing is tracked; before_background: threshold tracks its images "
+                    "thresholded";
+  }
   if (replay_ && replay_->hasTruth() && !reference_pose_) {
     reference_pose_ = [session = replay_](uint64_t frame_sequence) {
       const Eigen::VectorXd* truth = session->truth(frame_sequence);
