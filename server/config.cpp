@@ -424,11 +424,20 @@ class ConfigParser {
     }
 
     if (const YAML::Node tls = root["tls"]) {
-      onlyKeys(tls, "tls", {"cert", "key"});
+      onlyKeys(tls, "tls", {"cert", "key", "client_ca"});
       if (!tls["cert"] || !tls["key"]) fail(tls, "tls", "needs both 'cert' and 'key'");
       config.tls_cert_file = existingFile(tls["cert"], "tls.cert");
       config.tls_key_file = existingFile(tls["key"], "tls.key");
       checkTlsPair(tls, config.tls_cert_file, config.tls_key_file);
+      if (tls["client_ca"]) {
+        config.tls_client_ca_file = existingFile(tls["client_ca"], "tls.client_ca");
+        Bio file(BIO_new_file(config.tls_client_ca_file.c_str(), "r"), BIO_free);
+        std::unique_ptr<X509, decltype(&X509_free)> ca(
+            file ? PEM_read_bio_X509(file.get(), nullptr, nullptr, nullptr) : nullptr, X509_free);
+        if (!ca)
+          fail(tls["client_ca"], "tls.client_ca",
+               "no PEM certificate in " + config.tls_client_ca_file);
+      }
     }
 
     if (const YAML::Node auth = root["auth"]) {

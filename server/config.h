@@ -114,6 +114,9 @@ struct ServerConfig {
   bool threshold_before_background = false;
   std::string tls_cert_file;  // both or neither
   std::string tls_key_file;
+  // With TLS: PEM certificates of the authorities whose certificates clients must present (mutual
+  // TLS); empty: clients are not asked for one (the bearer token authenticates them).
+  std::string tls_client_ca_file;
   std::string bearer_token;  // empty: no token required
   LogLevel log_level = LogLevel::kInfo;
   // Replay a recorded session instead of the configured cameras.

@@ -256,6 +256,13 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
     if (!key.ok()) return Status::Error(key.error());
     grpc::SslServerCredentialsOptions tls;
     tls.pem_key_cert_pairs.push_back({key.value(), cert.value()});
+    if (!config.tls_client_ca_file.empty()) {
+      Expected<std::string> client_ca = readFile(config.tls_client_ca_file);
+      if (!client_ca.ok()) return Status::Error(client_ca.error());
+      // A client without a certificate one of these authorities signed is refused in the handshake.
+      tls.pem_root_certs = client_ca.value();
+      tls.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+    }
     credentials = grpc::SslServerCredentials(tls);
   }
   grpc::EnableDefaultHealthCheckService(true);
@@ -279,7 +286,10 @@ Status MocapServer::start() {
             << config_.tracker.evaluations << " evaluations/frame) from "
             << pipeline_->cameras().size() << " camera(s)"
             << (config_.replay() ? " replayed from " + config_.replay_directory : "") << " on "
-            << host << ":" << port_ << (config_.tls_cert_file.empty() ? "" : " with TLS")
+            << host << ":" << port_
+            << (config_.tls_cert_file.empty()        ? ""
+                : config_.tls_client_ca_file.empty() ? " with TLS"
+                                                     : " with TLS and client certificates")
             << (config_.bearer_token.empty() ? "" : ", bearer token required");
   return Status::Ok();
 }

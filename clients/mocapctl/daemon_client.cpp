@@ -13,10 +13,12 @@ std::vector<std::string> parseDaemonFlags(int argc, char** argv, DaemonFlags& fl
   std::vector<std::string> rest;
   for (int i = 2; i < argc; ++i) {
     const std::string arg = argv[i];
-    std::string* target = arg == "--server" ? &flags.server
-                          : arg == "--token" ? &flags.token
-                          : arg == "--tls-ca" ? &flags.tls_ca
-                                              : nullptr;
+    std::string* target = arg == "--server"     ? &flags.server
+                          : arg == "--token"    ? &flags.token
+                          : arg == "--tls-ca"   ? &flags.tls_ca
+                          : arg == "--tls-cert" ? &flags.tls_cert
+                          : arg == "--tls-key"  ? &flags.tls_key
+                                                : nullptr;
     if (!target) {
       rest.push_back(arg);
       continue;
@@ -27,15 +29,31 @@ std::vector<std::string> parseDaemonFlags(int argc, char** argv, DaemonFlags& fl
   return rest;
 }
 
+namespace {
+
+std::string readPem(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot read");
+  std::stringstream pem;
+  pem << in.rdbuf();
+  return pem.str();
+}
+
+}  // namespace
+
 DaemonClient::DaemonClient(const DaemonFlags& flags) : token_(flags.token) {
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  if (flags.tls_cert.empty() != flags.tls_key.empty())
+    throw std::runtime_error("--tls-cert and --tls-key go together");
+  if (!flags.tls_cert.empty() && flags.tls_ca.empty())
+    throw std::runtime_error("--tls-cert needs --tls-ca (the daemon's certificate to trust)");
   if (!flags.tls_ca.empty()) {
-    std::ifstream in(flags.tls_ca);
-    if (!in) throw std::runtime_error(flags.tls_ca + ": cannot read");
-    std::stringstream pem;
-    pem << in.rdbuf();
     grpc::SslCredentialsOptions tls;
-    tls.pem_root_certs = pem.str();
+    tls.pem_root_certs = readPem(flags.tls_ca);
+    if (!flags.tls_cert.empty()) {
+      tls.pem_cert_chain = readPem(flags.tls_cert);
+      tls.pem_private_key = readPem(flags.tls_key);
+    }
     credentials = grpc::SslCredentials(tls);
   }
   grpc::ChannelArguments arguments;

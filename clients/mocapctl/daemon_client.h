@@ -24,6 +24,10 @@ struct DaemonFlags {
   std::string server = "127.0.0.1:50051";
   std::string token;   // --token, or $MOCAP_TOKEN
   std::string tls_ca;  // --tls-ca PEM file: connect with TLS, trusting that CA
+  // --tls-cert / --tls-key PEM files: the client's certificate and key, for a daemon that asks
+  // for one (tls.client_ca); both or neither, with --tls-ca.
+  std::string tls_cert;
+  std::string tls_key;
 };
 
 // Parses argv[2...]: the daemon flags are taken out, the rest is returned in order. Throws

@@ -1,5 +1,5 @@
 // mocapctl subcommands that talk to a running mocapd (each also takes --server HOST:PORT,
-// --token TOKEN or $MOCAP_TOKEN, and --tls-ca PEM).
+// --token TOKEN or $MOCAP_TOKEN, --tls-ca PEM, and --tls-cert PEM --tls-key PEM).
 #pragma once
 
 namespace mocapctl {

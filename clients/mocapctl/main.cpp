@@ -29,6 +29,10 @@ constexpr Command kCommands[] = {
 void printUsage() {
   std::cerr << "usage: mocapctl <command> [flags]\n";
   for (const Command& c : kCommands) std::cerr << "  " << c.usage << "\n";
+  std::cerr << "commands that talk to mocapd also take --server HOST:PORT (default "
+               "127.0.0.1:50051), --token TOKEN (or $MOCAP_TOKEN), --tls-ca PEM (TLS, trusting "
+               "the daemon's certificate) and --tls-cert PEM --tls-key PEM (this client's, for a "
+               "daemon that asks for one)\n";
 }
 
 }  // namespace

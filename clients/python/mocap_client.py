@@ -48,13 +48,25 @@ NEAR_LIVE_CHANNEL_OPTIONS = [
 
 
 class MocapClient:
-    def __init__(self, server="127.0.0.1:50051", token=None, tls_ca=None, stubs_dir=None):
+    def __init__(self, server="127.0.0.1:50051", token=None, tls_ca=None, stubs_dir=None,
+                 tls_cert=None, tls_key=None):
+        """tls_ca: the daemon's certificate (PEM) to trust, for TLS; tls_cert and tls_key: this
+        client's certificate and key (PEM), for a daemon that asks for one (tls.client_ca)."""
         import grpc
         self._grpc = grpc
         self.pb, pb_grpc = _import_stubs(stubs_dir)
+        if bool(tls_cert) != bool(tls_key):
+            raise ValueError("tls_cert and tls_key go together")
+        if tls_cert and not tls_ca:
+            raise ValueError("tls_cert needs tls_ca (the daemon's certificate to trust)")
         if tls_ca:
-            with open(tls_ca, "rb") as f:
-                credentials = grpc.ssl_channel_credentials(root_certificates=f.read())
+            def read(path):
+                with open(path, "rb") as f:
+                    return f.read()
+            credentials = grpc.ssl_channel_credentials(
+                root_certificates=read(tls_ca),
+                private_key=read(tls_key) if tls_key else None,
+                certificate_chain=read(tls_cert) if tls_cert else None)
             self._channel = grpc.secure_channel(server, credentials, NEAR_LIVE_CHANNEL_OPTIONS)
         else:
             self._channel = grpc.insecure_channel(server, NEAR_LIVE_CHANNEL_OPTIONS)
@@ -125,7 +137,9 @@ def main():
                                             "background"])
     parser.add_argument("--server", default="127.0.0.1:50051")
     parser.add_argument("--token", default=os.environ.get("MOCAP_TOKEN"))
-    parser.add_argument("--tls-ca")
+    parser.add_argument("--tls-ca", help="the daemon's certificate (PEM): connect with TLS")
+    parser.add_argument("--tls-cert", help="this client's certificate (PEM), with --tls-key")
+    parser.add_argument("--tls-key", help="this client's private key (PEM)")
     parser.add_argument("--stubs", help="folder of the generated stubs (<build>/python)")
     parser.add_argument("--count", type=int, default=0, help="stream: stop after N poses")
     parser.add_argument("--joints", default="", help="stream: comma-separated joint names")
@@ -133,7 +147,8 @@ def main():
                         help="background: frames per camera to learn from (0: the daemon's 25)")
     args = parser.parse_args()
 
-    client = MocapClient(args.server, args.token, args.tls_ca, args.stubs)
+    client = MocapClient(args.server, args.token, args.tls_ca, args.stubs, args.tls_cert,
+                         args.tls_key)
     from google.protobuf import json_format
     try:
         if args.command == "stream":

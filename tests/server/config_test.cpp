@@ -334,6 +334,14 @@ TEST(ConfigTest, ATlsCertificateAndKeyAreCheckedBeforeTheyAreServed) {
   };
   for (const auto& [cert, key, expected] : cases)
     EXPECT_THAT(errorOf(tls(cert, key)), HasSubstr(expected)) << cert << " " << key;
+  // The authority clients' certificates must come from (mutual TLS): a PEM certificate.
+  EXPECT_TRUE(config.tls_client_ca_file.empty());
+  EXPECT_EQ(
+      parseConfig(tls(good.cert, good.key) + "  client_ca: " + other.cert + "\n", "test.yaml", ".")
+          .tls_client_ca_file,
+      other.cert);
+  EXPECT_THAT(errorOf(tls(good.cert, good.key) + "  client_ca: " + not_pem + "\n"),
+              HasSubstr("test.yaml:6: tls.client_ca: no PEM certificate in " + not_pem));
   std::filesystem::remove_all(dir);
 }
 
