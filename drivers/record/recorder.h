@@ -69,7 +69,8 @@ struct SetTruth {
   Eigen::VectorXd dofs;         // empty: the subject is not in view, nothing stored
 };
 
-// Thread use: open(), write(), close() and stats() from one owner thread (stats() from any).
+// Thread use: open(), write(), writeBackground() and close() from one thread at a time (mocapd
+// hands the recorder between its threads under a lock); stats() from any.
 class Recorder {
  public:
   // Sessions may only be created under `root` (an existing directory).
