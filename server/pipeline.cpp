@@ -710,17 +710,15 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   if (reference_pose_)
     for (const Dof& dof : model_.dofs) truth_dofs.push_back(dof.name);
   const Status opened = recorder->open(
-      requested, rig_, cameras, {&model_, config_.tracker.keyValues(), backgrounds, truth_dofs});
+      requested, rig_, cameras, {&model_, config_.tracker.keyValues(), truth_dofs});
   if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
   std::lock_guard lock(recording_mutex_);
   if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};
   recorder_ = std::move(recorder);
-  // A background installed while the session was being opened applies from its camera's next frame.
-  for (std::size_t c = 0; c < cameras_.size(); ++c) {
-    if (backgrounds_in_use_[c] != backgrounds[c])
-      recorder_->writeBackground(static_cast<int>(c), next_frame_sequences_[c],
-                                 backgrounds_in_use_[c]);
-  }
+  // The backgrounds in use now apply from each camera's first recorded frame (later ones, from
+  // useBackground, from a later frame).
+  for (std::size_t c = 0; c < cameras_.size(); ++c)
+    if (backgrounds_in_use_[c]) recorder_->writeBackground(static_cast<int>(c), 0, backgrounds_in_use_[c]);
   recording_path_ = relative_path;
   recording_started_wall_ns_ = wallNowNs();
   logInfo() << "recording to " << recorder_->sessionPath().string();

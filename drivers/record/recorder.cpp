@@ -193,21 +193,13 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
       return Status::Error(message);
     }
   }
-  session_ = session;
-  cameras_ = cameras;
-  for (std::size_t c = 0; c < tracking.backgrounds.size() && c < cameras.size(); ++c) {
-    if (!tracking.backgrounds[c]) continue;
-    if (!storeBackground({0, static_cast<int>(c), ""}, tracking.backgrounds[c].get())) {
-      closeFiles();
-      std::lock_guard<std::mutex> lock(mutex_);
-      return Status::Error("recorder: " + stats_.last_error);
-    }
-  }
   // The manifest goes last: a directory without one is not a session, whatever else it holds.
   if (Status status = writeFileAtomically(session / kManifestFile, emitManifest(manifest)); !status.ok()) {
     closeFiles();
     return Status::Error("recorder: " + status.message());
   }
+  session_ = session;
+  cameras_ = cameras;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stats_ = {};

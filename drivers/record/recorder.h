@@ -55,9 +55,6 @@ struct RecorderStats {
 struct SessionTracking {
   const BodyModel* body = nullptr;  // stored as body.yaml; nullptr: none
   std::vector<std::pair<std::string, std::string>> tracker_settings;  // the manifest's `tracker:`
-  // Per camera, the silhouette background in use when the recording starts (stored in
-  // backgrounds.csv from the camera's first frame); null or missing: none (thresholded).
-  std::vector<std::shared_ptr<const BackgroundModel>> backgrounds;
   // The DOF names of the true poses write() is given, in order (truth.csv's columns); empty: the
   // source does not know the truth, no truth.csv.
   std::vector<std::string> truth_dofs;
@@ -93,8 +90,9 @@ class Recorder {
   void write(const FrameSet& set, SetTruth truth = {});
 
   // Records that `camera`'s frames from camera_sequence `from_sequence` on are extracted against
-  // `background` (null: none, thresholded). Never dropped, and stored on a thread of the
-  // recorder's, so the caller never waits on the disk.
+  // `background` (null: none, thresholded); from_sequence 0 for the one in use when the recording
+  // starts. Never dropped, and stored on a thread of the recorder's, so the caller never waits on
+  // the disk (a model takes a few hundred ms).
   void writeBackground(int camera, uint64_t from_sequence,
                        std::shared_ptr<const BackgroundModel> background);
 

@@ -30,12 +30,10 @@ constexpr int kHeight = 48;
 // What a session was tracked with, for Recorder::open (fields not given: none).
 SessionTracking tracked(const BodyModel* body,
                         std::vector<std::pair<std::string, std::string>> settings = {},
-                        std::vector<std::shared_ptr<const BackgroundModel>> backgrounds = {},
                         std::vector<std::string> truth_dofs = {}) {
   SessionTracking tracking;
   tracking.body = body;
   tracking.tracker_settings = std::move(settings);
-  tracking.backgrounds = std::move(backgrounds);
   tracking.truth_dofs = std::move(truth_dofs);
   return tracking;
 }
@@ -293,11 +291,8 @@ std::shared_ptr<const BackgroundModel> background(float level, int type) {
 
 TEST_F(SessionTest, StoresTheBackgroundsItsSilhouettesWereExtractedAgainst) {
   Recorder recorder(root_);
-  // Camera 0 has a background from the start, camera 1 none.
-  ASSERT_TRUE(recorder
-                  .open("backgrounds", rig(), cameras(kPixelGray),
-                        tracked(nullptr, {}, {background(40, CV_8UC1), nullptr}))
-                  .ok());
+  ASSERT_TRUE(recorder.open("backgrounds", rig(), cameras(kPixelGray)).ok());
+  recorder.writeBackground(0, 0, background(40, CV_8UC1));  // camera 0's from the start; 1 none
   for (int n = 0; n < 3; ++n) recorder.write(makeSet(n, CV_8UC1));
   recorder.writeBackground(1, 103, background(90, CV_8UC1));  // captured during the recording
   recorder.writeBackground(0, 3, background(91, CV_8UC1));
@@ -337,10 +332,9 @@ TEST_F(SessionTest, StoresTheBackgroundsItsSilhouettesWereExtractedAgainst) {
 TEST_F(SessionTest, BadBackgroundsAreNamedWithTheirLine) {
   const auto recordWithBackground = [&](const std::string& name) {
     Recorder recorder(root_);
-    EXPECT_TRUE(recorder
-                    .open(name, rig(), cameras(kPixelGray),
-                          tracked(nullptr, {}, {background(40, CV_8UC1), background(50, CV_8UC1)}))
-                    .ok());
+    EXPECT_TRUE(recorder.open(name, rig(), cameras(kPixelGray)).ok());
+    recorder.writeBackground(0, 0, background(40, CV_8UC1));
+    recorder.writeBackground(1, 0, background(50, CV_8UC1));
     recorder.write(makeSet(0, CV_8UC1));
     EXPECT_TRUE(recorder.close().ok());
     return recorder.sessionPath();
@@ -397,7 +391,7 @@ TEST_F(SessionTest, StoresTheTruePosesOfASourceThatKnowsThem) {
   for (const Dof& dof : body.dofs) names.push_back(dof.name);
   Recorder recorder(root_);
   ASSERT_TRUE(
-      recorder.open("truth", rig(), cameras(kPixelGray), tracked(&body, {}, {}, names)).ok());
+      recorder.open("truth", rig(), cameras(kPixelGray), tracked(&body, {}, names)).ok());
   std::vector<Eigen::VectorXd> poses;
   for (int n = 0; n < 4; ++n) {
     poses.push_back(Eigen::VectorXd::Random(static_cast<Eigen::Index>(body.dofs.size())) / 3.0);
