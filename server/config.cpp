@@ -49,6 +49,17 @@ std::string asnTime(const ASN1_TIME* time) {
   return std::string(text, static_cast<std::size_t>(length));
 }
 
+using X509Ptr = std::unique_ptr<X509, decltype(&X509_free)>;
+
+// The first PEM certificate in `path`, or null. No passphrase prompt: a daemon has no terminal to
+// ask on, and must not wait for one.
+int noPassphrase(char*, int, int, void*) { return 0; }
+X509Ptr readPemCertificate(const std::string& path) {
+  Bio file(BIO_new_file(path.c_str(), "r"), BIO_free);
+  return X509Ptr(file ? PEM_read_bio_X509(file.get(), nullptr, noPassphrase, nullptr) : nullptr,
+                 X509_free);
+}
+
 class ConfigParser {
  public:
   ConfigParser(std::string source, std::filesystem::path base)
@@ -137,16 +148,11 @@ class ConfigParser {
   // file is wrong: they are read here first.
   void checkTlsPair(const YAML::Node& tls, const std::string& cert_path,
                     const std::string& key_path) const {
-    // No passphrase prompt: a daemon has no terminal to ask on, and must not wait for one.
-    auto no_passphrase = [](char*, int, int, void*) { return 0; };
-    Bio cert_file(BIO_new_file(cert_path.c_str(), "r"), BIO_free);
-    std::unique_ptr<X509, decltype(&X509_free)> cert(
-        cert_file ? PEM_read_bio_X509(cert_file.get(), nullptr, no_passphrase, nullptr) : nullptr,
-        X509_free);
+    const X509Ptr cert = readPemCertificate(cert_path);
     if (!cert) fail(tls["cert"], "tls.cert", "no PEM certificate in " + cert_path);
     Bio key_file(BIO_new_file(key_path.c_str(), "r"), BIO_free);
     std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(
-        key_file ? PEM_read_bio_PrivateKey(key_file.get(), nullptr, no_passphrase, nullptr)
+        key_file ? PEM_read_bio_PrivateKey(key_file.get(), nullptr, noPassphrase, nullptr)
                  : nullptr,
         EVP_PKEY_free);
     if (!key) {
@@ -431,10 +437,7 @@ class ConfigParser {
       checkTlsPair(tls, config.tls_cert_file, config.tls_key_file);
       if (tls["client_ca"]) {
         config.tls_client_ca_file = existingFile(tls["client_ca"], "tls.client_ca");
-        Bio file(BIO_new_file(config.tls_client_ca_file.c_str(), "r"), BIO_free);
-        std::unique_ptr<X509, decltype(&X509_free)> ca(
-            file ? PEM_read_bio_X509(file.get(), nullptr, nullptr, nullptr) : nullptr, X509_free);
-        if (!ca)
+        if (!readPemCertificate(config.tls_client_ca_file))
           fail(tls["client_ca"], "tls.client_ca",
                "no PEM certificate in " + config.tls_client_ca_file);
       }

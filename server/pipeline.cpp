@@ -178,6 +178,10 @@ std::string Pipeline::backgroundFile(std::size_t camera) const {
       .string();
 }
 
+const char* Pipeline::withoutBackgroundIs() const {
+  return config_.threshold_before_background ? "thresholded" : "not tracked";
+}
+
 std::string Pipeline::withoutBackground(const std::string& why) const {
   std::string source = config_.threshold_before_background
                            ? "threshold"
@@ -210,10 +214,8 @@ void Pipeline::loadBackgrounds() {
     const std::string path = backgroundFile(c);
     std::error_code error;
     if (!std::filesystem::exists(path, error)) continue;
-    const std::string fallback =
-        "; cameras[" + std::to_string(c) + "] is " +
-        (config_.threshold_before_background ? "thresholded" : "not tracked") +
-        " until the next CaptureBackground";
+    const std::string fallback = "; cameras[" + std::to_string(c) + "] is " +
+                                 withoutBackgroundIs() + " until the next CaptureBackground";
     BackgroundModel model;
     try {
       model = loadBackground(path);
@@ -552,8 +554,7 @@ void Pipeline::maskLoop() {
         // no silhouettes, or thresholded ones, beat silhouettes frozen at the last good frame.
         logWarning() << "camera " << c
                      << ": silhouette extraction failed: " << extractors_[c]->lastError() << "; "
-                     << (config_.threshold_before_background ? "thresholded" : "not tracked")
-                     << " until the next capture";
+                     << withoutBackgroundIs() << " until the next capture";
         setSilhouetteSource(
             c, withoutBackground("background unusable: " + extractors_[c]->lastError()));
         useBackground(c, nullptr);

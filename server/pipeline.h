@@ -235,6 +235,8 @@ class Pipeline {
                        BackgroundResult learned, std::function<void(const BackgroundResult&)> done);
   // The silhouette source of a camera without a background (config's before_background), and why.
   std::string withoutBackground(const std::string& why) const;
+  // What becomes of such a camera's images, for messages: "thresholded" or "not tracked".
+  const char* withoutBackgroundIs() const;
   // What status() reports as camera's silhouette source; ignored when the scene gives the truth.
   void setSilhouetteSource(std::size_t camera, std::string source);
   void warnBackground(const std::string& warning);

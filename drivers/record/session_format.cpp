@@ -31,6 +31,19 @@ bool parseNumber(const std::string& text, T& value) {
   return error == std::errc() && ptr == end && !text.empty();
 }
 
+// The line's columns if there are `count` of them; the error names the count (and `header`, if
+// given) otherwise.
+Expected<std::vector<std::string>> columns(const std::string& line, std::size_t count,
+                                           const std::string& header = "") {
+  std::vector<std::string> c = splitCsv(line);
+  if (c.size() != count) {
+    return Status::Error("expected " + std::to_string(count) + " columns" +
+                         (header.empty() ? "" : " (" + header + ")") + ", found " +
+                         std::to_string(c.size()));
+  }
+  return c;
+}
+
 bool parseFlag(const std::string& text, bool& value) {
   if (text != "0" && text != "1") return false;
   value = text == "1";
@@ -63,11 +76,9 @@ std::string formatSetLine(const SetRecord& r) {
 }
 
 Expected<IndexRecord> parseIndexLine(const std::string& line) {
-  const std::vector<std::string> c = splitCsv(line);
-  if (c.size() != 6) {
-    return Status::Error("expected 6 columns (" + std::string(kIndexHeader) + "), found " +
-                         std::to_string(c.size()));
-  }
+  Expected<std::vector<std::string>> split = columns(line, 6, kIndexHeader);
+  if (!split.ok()) return Status::Error(split.error());
+  const std::vector<std::string>& c = split.value();
   IndexRecord r;
   if (!parseNumber(c[0], r.set_sequence)) return Status::Error("set_sequence '" + c[0] + "' is not a number");
   if (!parseNumber(c[1], r.camera_sequence)) return Status::Error("camera_sequence '" + c[1] + "' is not a number");
@@ -84,11 +95,9 @@ std::string formatBackgroundLine(const BackgroundRecord& r) {
 }
 
 Expected<BackgroundRecord> parseBackgroundLine(const std::string& line, std::size_t camera_count) {
-  const std::vector<std::string> c = splitCsv(line);
-  if (c.size() != 3) {
-    return Status::Error("expected 3 columns (" + std::string(kBackgroundsHeader) + "), found " +
-                         std::to_string(c.size()));
-  }
+  Expected<std::vector<std::string>> split = columns(line, 3, kBackgroundsHeader);
+  if (!split.ok()) return Status::Error(split.error());
+  const std::vector<std::string>& c = split.value();
   BackgroundRecord r;
   if (!parseNumber(c[0], r.from_sequence))
     return Status::Error("from_sequence '" + c[0] + "' is not a number");
@@ -121,11 +130,9 @@ std::string formatTruthLine(const TruthRecord& r) {
 
 Expected<TruthRecord> parseTruthLine(const std::string& line,
                                      const std::vector<std::string>& dof_names) {
-  const std::vector<std::string> c = splitCsv(line);
-  if (c.size() != dof_names.size() + 1) {
-    return Status::Error("expected " + std::to_string(dof_names.size() + 1) + " columns, found " +
-                         std::to_string(c.size()));
-  }
+  Expected<std::vector<std::string>> split = columns(line, dof_names.size() + 1);
+  if (!split.ok()) return Status::Error(split.error());
+  const std::vector<std::string>& c = split.value();
   TruthRecord r;
   if (!parseNumber(c[0], r.frame_sequence))
     return Status::Error("frame_sequence '" + c[0] + "' is not a number");
@@ -140,11 +147,9 @@ Expected<TruthRecord> parseTruthLine(const std::string& line,
 }
 
 Expected<SetRecord> parseSetLine(const std::string& line, std::size_t camera_count) {
-  const std::vector<std::string> c = splitCsv(line);
-  if (c.size() != 3) {
-    return Status::Error("expected 3 columns (" + std::string(kSetsHeader) + "), found " +
-                         std::to_string(c.size()));
-  }
+  Expected<std::vector<std::string>> split = columns(line, 3, kSetsHeader);
+  if (!split.ok()) return Status::Error(split.error());
+  const std::vector<std::string>& c = split.value();
   SetRecord r;
   if (!parseNumber(c[0], r.set_sequence)) return Status::Error("set_sequence '" + c[0] + "' is not a number");
   if (!parseNumber(c[1], r.timestamp_ns)) return Status::Error("timestamp_ns '" + c[1] + "' is not a number");

@@ -19,7 +19,9 @@ struct CsvFile {
   bool truncated_tail = false;                     // the last line had no newline: dropped
 };
 
-Expected<CsvFile> readCsv(const fs::path& path, const std::string& header) {
+// A crash-tolerant CSV log: a truncated last line is dropped and noted in `notes`.
+Expected<CsvFile> readCsv(const fs::path& path, const std::string& header,
+                          std::vector<std::string>& notes) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::Error(path.string() + ": missing or unreadable");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -45,6 +47,7 @@ Expected<CsvFile> readCsv(const fs::path& path, const std::string& header) {
   if (number == 0 || (number == 1 && file.truncated_tail)) {
     return Status::Error(path.string() + ": empty (no header line)");
   }
+  if (file.truncated_tail) notes.push_back(path.string() + ": dropped a truncated last line");
   return file;
 }
 
@@ -81,21 +84,20 @@ Status SessionReader::loadBackgrounds() {
   const fs::path path = dir_ / kBackgroundsFile;
   std::error_code error;
   if (!fs::exists(path, error)) return Status::Ok();  // recorded without (or before) backgrounds
-  Expected<CsvFile> file = readCsv(path, kBackgroundsHeader);
+  Expected<CsvFile> file = readCsv(path, kBackgroundsHeader, notes_);
   if (!file.ok()) return Status::Error(file.error());
-  if (file.value().truncated_tail)
-    notes_.push_back(path.string() + ": dropped a truncated last line");
   const std::size_t camera_count = manifest_.cameras.size();
+  std::vector<uint64_t> latest_from(camera_count, 0);  // per camera, its last line's from_sequence
   for (const auto& [number, line] : file.value().lines) {
     const std::string where = path.string() + ":" + std::to_string(number) + ": ";
     Expected<BackgroundRecord> parsed = parseBackgroundLine(line, camera_count);
     if (!parsed.ok()) return Status::Error(where + parsed.error());
     const BackgroundRecord& record = parsed.value();
-    for (const SessionBackground& earlier : backgrounds_) {
-      if (earlier.camera == record.camera && earlier.from_sequence > record.from_sequence)
-        return Status::Error(where + "from_sequence " + std::to_string(record.from_sequence) +
-                             " goes back (camera " + std::to_string(record.camera) + ")");
-    }
+    uint64_t& latest = latest_from[static_cast<std::size_t>(record.camera)];
+    if (record.from_sequence < latest)
+      return Status::Error(where + "from_sequence " + std::to_string(record.from_sequence) +
+                           " goes back (camera " + std::to_string(record.camera) + ")");
+    latest = record.from_sequence;
     SessionBackground background{record.from_sequence, record.camera, "", nullptr};
     if (!record.file.empty()) {
       const fs::path model_path = dir_ / cameraDirectoryName(record.camera) / record.file;
@@ -131,10 +133,8 @@ Status SessionReader::loadTruth() {
   if (!body_model_) return Status::Error(path.string() + ": the session stores no body model");
   std::vector<std::string> names;
   for (const Dof& dof : body_model_->dofs) names.push_back(dof.name);
-  Expected<CsvFile> file = readCsv(path, truthHeader(names));
+  Expected<CsvFile> file = readCsv(path, truthHeader(names), notes_);
   if (!file.ok()) return Status::Error(file.error());
-  if (file.value().truncated_tail)
-    notes_.push_back(path.string() + ": dropped a truncated last line");
   for (const auto& [number, line] : file.value().lines) {
     Expected<TruthRecord> record = parseTruthLine(line, names);
     if (!record.ok())
@@ -184,9 +184,8 @@ Status SessionReader::load(const SessionReadOptions& options) {
   std::vector<std::map<uint64_t, IndexRecord>> records(camera_count);
   for (std::size_t c = 0; c < camera_count; ++c) {
     const fs::path index_path = dir_ / cameraDirectoryName(static_cast<int>(c)) / kIndexFile;
-    Expected<CsvFile> index = readCsv(index_path, kIndexHeader);
+    Expected<CsvFile> index = readCsv(index_path, kIndexHeader, notes_);
     if (!index.ok()) return Status::Error(index.error());
-    if (index.value().truncated_tail) notes_.push_back(index_path.string() + ": dropped a truncated last line");
     for (const auto& [number, line] : index.value().lines) {
       Expected<IndexRecord> record = parseIndexLine(line);
       const std::string where = index_path.string() + ":" + std::to_string(number) + ": ";
@@ -200,9 +199,8 @@ Status SessionReader::load(const SessionReadOptions& options) {
   }
 
   const fs::path sets_path = dir_ / kSetsFile;
-  Expected<CsvFile> sets_file = readCsv(sets_path, kSetsHeader);
+  Expected<CsvFile> sets_file = readCsv(sets_path, kSetsHeader, notes_);
   if (!sets_file.ok()) return Status::Error(sets_file.error());
-  if (sets_file.value().truncated_tail) notes_.push_back(sets_path.string() + ": dropped a truncated last line");
   std::size_t referenced = 0;
   for (const auto& [number, line] : sets_file.value().lines) {
     const std::string where = sets_path.string() + ":" + std::to_string(number) + ": ";
