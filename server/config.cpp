@@ -242,7 +242,8 @@ class ConfigParser {
         tracker, "tracker",
         {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead", "refine",
          "refine_max", "refine_hold", "refine_plant", "refine_swap", "refine_swap_margin",
-         "refine_restarts", "refine_facing_prior", "dofs", "start", "lost_below", "lost_after"});
+         "refine_restarts", "refine_facing_prior", "refine_unexplained", "dofs", "start",
+         "lost_below", "lost_after"});
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
@@ -294,6 +295,8 @@ class ConfigParser {
     if (tracker["refine_facing_prior"])
       t.refine_facing_prior =
           number(tracker["refine_facing_prior"], "tracker.refine_facing_prior", 0, 1e6);
+    if (tracker["refine_unexplained"])
+      t.refine_unexplained = boolean(tracker["refine_unexplained"], "tracker.refine_unexplained");
     if (tracker["dofs"]) {
       t.dofs = text(tracker["dofs"], "tracker.dofs");
       if (t.dofs != "all" && t.dofs != "gait")
@@ -506,6 +509,7 @@ FilterOptions TrackerSettings::filterOptions() const {
   options.refine_restart_share = refine_restarts;
   options.refine_max_evaluations = refine_max;
   options.refine_facing_prior = refine_facing_prior;
+  options.refine_unexplained = refine_unexplained;
   return options;
 }
 
@@ -535,6 +539,7 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
           {"refine_swap_margin", exact(refine_swap_margin)},
           {"refine_restarts", exact(refine_restarts)},
           {"refine_facing_prior", exact(refine_facing_prior)},
+          {"refine_unexplained", refine_unexplained ? "true" : "false"},
           {"dofs", dofs},
           {"start", start},
           {"lost_below", exact(lost_below)},

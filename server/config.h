@@ -49,6 +49,9 @@ struct TrackerSettings {
   double refine_swap_margin = FilterOptions().refine_swap_margin;
   double refine_restarts = 0;
   double refine_facing_prior = 0;
+  // Whether the refinement chases the silhouette a pose leaves unexplained with the legs
+  // (FilterOptions::refine_unexplained). A session recorded before the key replays without it.
+  bool refine_unexplained = false;
   // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the
   // human's 17 of the lower body and trunk), the others held at the starting pose.
   std::string dofs = "all";

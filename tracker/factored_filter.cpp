@@ -19,6 +19,7 @@
 #include "tracker/filter.h"
 #include "tracker/incremental_body.h"
 #include "tracker/kinematics.h"
+#include "tracker/unexplained.h"
 
 namespace mocap {
 namespace {
@@ -57,13 +58,16 @@ struct HeldChild {
   double sign[3];
 };
 
-// For FilterOptions::refine_plant: a foot segment, the DOFs that plant it (its hip and knee), and
-// the segments from the root down to it (all that places it).
+// For FilterOptions::refine_plant and refine_unexplained: a leg of the model's `feet`: the foot
+// segment, the DOFs that place it (its hip and knee), the segments from the root down to it (all
+// that places it) and every free rotation of its grandparent, parent and itself; the model's
+// facing twists left out of both.
 constexpr int kMaxPlantDofs = 12;  // two joints of at most 6 DOFs each
-struct PlantedFoot {
+struct Leg {
   int segment = -1;
   std::vector<int> dofs;
   std::vector<int> chain;
+  std::vector<int> rotations;
 };
 
 // For Lookahead::kBody, per parent particle and layer: the segments it has not placed yet (outside
@@ -139,7 +143,7 @@ class FactoredFilter final : public PoseFilter {
       refine_held_.resize(refine_dofs_.size());
       refine_hold_steps_.resize(refine_dofs_.size());
       if (options.refine_hold) findHeldChildren();
-      if (options.refine_plant) findPlantedFeet();
+      if (options.refine_plant || options.refine_unexplained) findLegs();
       if (options.refine_swap) findSwappedLegs();
       if (options.refine_restart_share > 0) findRestartLimbs();
       if (options.refine_facing_prior > 0) findFacingTwists();
@@ -151,6 +155,8 @@ class FactoredFilter final : public PoseFilter {
     }
 
     for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
+    if (refiner_ && options.refine_unexplained)
+      unexplained_spans_.resize(model.segments.size() * max_rows_);
     candidates_.resize(candidates_per_layer_);
     candidate_spans_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size() *
                             max_rows_);
@@ -578,6 +584,7 @@ class FactoredFilter final : public PoseFilter {
     Eigen::VectorXd& sweep_start = refine_sweep_start_;
     if (restart_draws_ > 0) restartLimb(q, best, budget);
     if (!swap_pairs_.empty()) swapLegs(q, best, budget);
+    if (options_.refine_unexplained) chaseUnexplained(masks, q, best, budget, estimate);
     while (budget > 0 && !estimate.cut_short) {
       sweep_start = q;
       const int budget_before_sweep = budget;
@@ -590,7 +597,7 @@ class FactoredFilter final : public PoseFilter {
         if (stepDof(d, refine_steps_[i], nullptr, q, best, budget, 0)) continue;
         if (!refine_held_[i].empty())
           stepDof(d, refine_hold_steps_[i], &refine_held_[i], q, best, budget, 0);
-        else if (!planted_feet_.empty() && model_.dofs[d].segment == 0 &&
+        else if (options_.refine_plant && !legs_.empty() && model_.dofs[d].segment == 0 &&
                  model_.dofs[d].type == DofType::kTranslation)
           stepDof(d, refine_hold_steps_[i], nullptr, q, best, budget, 0, true);
       }
@@ -717,66 +724,74 @@ class FactoredFilter final : public PoseFilter {
     }
   }
 
-  // For FilterOptions::refine_plant: each of the model's feet and the free rotations of the two
-  // segments above it, facing twists left out (the facing prior governs them, and without them
-  // hip and knee have three angles for the foot's three coordinates).
-  void findPlantedFeet() {
+  // For FilterOptions::refine_plant and refine_unexplained: each of the model's feet with the free
+  // rotations of the two segments above it, facing twists left out (the facing prior governs them,
+  // and without them hip and knee have three angles for the foot's three coordinates).
+  void findLegs() {
     for (const std::string& name : model_.feet) {
-      PlantedFoot foot;
+      Leg foot;
       foot.segment = model_.segmentIndex(name);
       for (int s = foot.segment; s >= 0; s = model_.segments[s].parent)
         foot.chain.insert(foot.chain.begin(), s);
       const int knee = model_.segments[foot.segment].parent;
-      for (int s : {model_.segments[knee].parent, knee})
+      for (int s : {model_.segments[knee].parent, knee, foot.segment})
         for (int d : model_.segments[s].dofs) {
           const Dof& dof = model_.dofs[d];
           const bool facing = std::find(model_.facing_twists.begin(), model_.facing_twists.end(),
                                         dof.name) != model_.facing_twists.end();
-          if (dof.isFree() && dof.type == DofType::kRotation && !facing) foot.dofs.push_back(d);
+          if (!dof.isFree() || dof.type != DofType::kRotation || facing) continue;
+          foot.rotations.push_back(d);
+          if (s != foot.segment) foot.dofs.push_back(d);
         }
-      if (!foot.dofs.empty()) planted_feet_.push_back(std::move(foot));
+      if (!foot.dofs.empty()) legs_.push_back(std::move(foot));
     }
   }
 
   // Re-solves the planted feet's hip and knee angles in `tried` (which differs from `q` in the
-  // pelvis) so each foot's joint stays where it is at q: damped Gauss-Newton steps on a numeric
-  // Jacobian, clamped to the joint limits.
+  // pelvis) so each foot's joint stays where it is at q.
   void plantFeet(const Eigen::VectorXd& q, Eigen::VectorXd& tried) {
-    constexpr int kIterations = 6;
-    constexpr double kTolerance = 1e-4, kProbe = 1e-5, kDamping = 1e-4;  // metres, radians
     KinematicsData& kin = plant_kinematics_;
     std::vector<Eigen::Vector3d>& targets = plant_targets_;
     targets.clear();
-    for (const PlantedFoot& foot : planted_feet_) {
+    for (const Leg& foot : legs_) {
       forwardKinematics(model_, kin, q, foot.chain);
       targets.push_back(kin.world[foot.segment].translation());
     }
+    for (std::size_t f = 0; f < legs_.size(); ++f)
+      moveJointTo(legs_[f], legs_[f].segment, targets[f], tried);
+  }
+
+  // Moves the origin of `segment` (the foot's or a segment above it on its chain) towards `target`
+  // by the foot's hip and knee angles in `tried`: damped Gauss-Newton steps on a numeric Jacobian,
+  // clamped to the joint limits.
+  void moveJointTo(const Leg& foot, int segment, const Eigen::Vector3d& target,
+                   Eigen::VectorXd& tried) {
+    constexpr int kIterations = 6;
+    constexpr double kTolerance = 1e-4, kProbe = 1e-5, kDamping = 1e-4;  // metres, radians
+    KinematicsData& kin = plant_kinematics_;
     Eigen::VectorXd& probe = plant_probe_;
-    for (std::size_t f = 0; f < planted_feet_.size(); ++f) {
-      const PlantedFoot& foot = planted_feet_[f];
-      const int n = static_cast<int>(foot.dofs.size());
-      for (int iteration = 0; iteration < kIterations; ++iteration) {
-        forwardKinematics(model_, kin, tried, foot.chain);
-        const Eigen::Vector3d at = kin.world[foot.segment].translation();
-        const Eigen::Vector3d residual = targets[f] - at;
-        if (residual.norm() < kTolerance) break;
-        // On the stack: two joints have at most 12 DOFs, and this runs for every planted trial.
-        Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxPlantDofs> jacobian(3, n);
-        for (int k = 0; k < n; ++k) {
-          probe = tried;
-          probe[foot.dofs[k]] += kProbe;
-          forwardKinematics(model_, kin, probe, foot.chain);
-          jacobian.col(k) = (kin.world[foot.segment].translation() - at) / kProbe;
-        }
-        using Square =
-            Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxPlantDofs, kMaxPlantDofs>;
-        const Square normal = jacobian.transpose() * jacobian + kDamping * Square::Identity(n, n);
-        const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxPlantDofs, 1> change =
-            normal.ldlt().solve(jacobian.transpose() * residual);
-        for (int k = 0; k < n; ++k) {
-          const Dof& dof = model_.dofs[foot.dofs[k]];
-          tried[foot.dofs[k]] = std::clamp(tried[foot.dofs[k]] + change[k], dof.min, dof.max);
-        }
+    const int n = static_cast<int>(foot.dofs.size());
+    for (int iteration = 0; iteration < kIterations; ++iteration) {
+      forwardKinematics(model_, kin, tried, foot.chain);
+      const Eigen::Vector3d at = kin.world[segment].translation();
+      const Eigen::Vector3d residual = target - at;
+      if (residual.norm() < kTolerance) break;
+      // On the stack: two joints have at most 12 DOFs, and this runs for every planted trial.
+      Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxPlantDofs> jacobian(3, n);
+      for (int k = 0; k < n; ++k) {
+        probe = tried;
+        probe[foot.dofs[k]] += kProbe;
+        forwardKinematics(model_, kin, probe, foot.chain);
+        jacobian.col(k) = (kin.world[segment].translation() - at) / kProbe;
+      }
+      using Square =
+          Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxPlantDofs, kMaxPlantDofs>;
+      const Square normal = jacobian.transpose() * jacobian + kDamping * Square::Identity(n, n);
+      const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxPlantDofs, 1> change =
+          normal.ldlt().solve(jacobian.transpose() * residual);
+      for (int k = 0; k < n; ++k) {
+        const Dof& dof = model_.dofs[foot.dofs[k]];
+        tried[foot.dofs[k]] = std::clamp(tried[foot.dofs[k]] + change[k], dof.min, dof.max);
       }
     }
   }
@@ -887,6 +902,81 @@ class FactoredFilter final : public PoseFilter {
                   best, budget);
   }
 
+  // FilterOptions::refine_unexplained: in each camera, the largest blob of silhouette that q leaves
+  // unexplained gives a ray through its centroid; each leg's knee, then ankle, is moved by its hip
+  // and knee angles to the ray's point nearest it if that point is below the hip. The best of
+  // those poses is searched locally on its leg's angles and kept if it beats the pose; otherwise
+  // the evaluator goes back to q.
+  void chaseUnexplained(const std::vector<SilhouetteMask>& masks, Eigen::VectorXd& q, double& best,
+                        int& budget, FrameEstimate& estimate) {
+    // Fixed before measuring: a 5-pixel opening drops the slivers along the edges; a blob counts
+    // from 2 % of the camera's silhouette (a forearm's or a shin's share) and 100 pixels.
+    constexpr int kOpening = 5;
+    constexpr double kMinShare = 0.02;
+    constexpr long kMinPixels = 100;
+    if (legs_.empty() || budget <= 2) return;
+    KinematicsData& kin = plant_kinematics_;
+    forwardKinematics(model_, kin, q);
+    std::vector<Eigen::Vector3d>& joints = plant_targets_;  // per leg: hip, knee, ankle
+    joints.clear();
+    for (const Leg& leg : legs_) {
+      const int knee = model_.segments[leg.segment].parent;
+      for (int s : {model_.segments[knee].parent, knee, leg.segment})
+        joints.push_back(kin.world[s].translation());
+    }
+    std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> rays;  // origin, unit direction
+    ShapeRasterizer& rasterizer = scratch_[0].rasterizer;           // the layers' workers are idle
+    for (std::size_t c = 0; c < rig_.size(); ++c) {
+      unexplained_footprints_.clear();
+      for (std::size_t s = 0; s < model_.segments.size(); ++s) {
+        const Shape& shape = model_.segments[s].shape;
+        if (shape.type == ShapeType::kNone) continue;
+        RowSpan* spans = &unexplained_spans_[unexplained_footprints_.size() * max_rows_];
+        unexplained_footprints_.push_back(
+            rasterizer.rasterize(shape, kin.world[s], rig_[c], spans));
+      }
+      estimate.segment_renders += c == 0 ? static_cast<long>(unexplained_footprints_.size()) : 0;
+      const long min_area =
+          std::max(kMinPixels, std::lround(kMinShare * static_cast<double>(masks[c].total())));
+      const std::vector<UnexplainedBlob> blobs =
+          unexplainedBlobs(masks[c], unexplained_footprints_.data(),
+                           static_cast<int>(unexplained_footprints_.size()), min_area, kOpening);
+      if (!blobs.empty())
+        rays.emplace_back(rig_[c].center(), rig_[c].backProject(blobs.front().centroid));
+    }
+    Eigen::VectorXd& tried = refine_trial_;
+    Eigen::VectorXd& local = restart_pose_;
+    double local_value = -INFINITY;
+    std::size_t local_leg = 0;
+    for (const auto& [origin, direction] : rays) {
+      for (std::size_t l = 0; l < legs_.size(); ++l) {
+        const int segments[2] = {model_.segments[legs_[l].segment].parent, legs_[l].segment};
+        for (int j = 0; j < 2 && budget > 2; ++j) {
+          const Eigen::Vector3d& joint = joints[3 * l + 1 + j];
+          const Eigen::Vector3d target =
+              origin + direction * std::max(0.0, direction.dot(joint - origin));
+          // World z is up: a knee or ankle above the hip is a blob of the arms or the trunk.
+          if (target.z() >= joints[3 * l].z()) continue;
+          tried = q;
+          moveJointTo(legs_[l], segments[j], target, tried);
+          const double value = trialScore(tried, budget);
+          refiner_->reject();
+          if (value > local_value) {
+            local_value = value;
+            local = tried;
+            local_leg = l;
+          }
+        }
+      }
+    }
+    if (local_value == -INFINITY || budget <= 2) return;
+    trialScore(local, budget);
+    refiner_->accept();
+    // Up to 2 poses per leg angle.
+    const std::vector<int>& dofs = legs_[local_leg].rotations;
+    searchAndKeep(dofs, 2 * static_cast<int>(dofs.size()), 0, local, local_value, q, best, budget);
+  }
+
   struct RestartLimb {
     std::vector<int> root_dofs;  // the limb root's free rotation DOFs
     std::vector<int> dofs;       // every free rotation DOF of the limb
@@ -987,8 +1077,10 @@ class FactoredFilter final : public PoseFilter {
   std::vector<double> refine_steps_;                   // per refined DOF
   std::vector<std::vector<HeldChild>> refine_held_;  // per refined DOF (FilterOptions::refine_hold)
   std::vector<double> refine_hold_steps_;            // per refined DOF
-  std::vector<PlantedFoot> planted_feet_;            // FilterOptions::refine_plant
-  KinematicsData plant_kinematics_{model_};          // scratch of plantFeet()
+  std::vector<Leg> legs_;                    // FilterOptions::refine_plant and refine_unexplained
+  KinematicsData plant_kinematics_{model_};  // scratch of moveJointTo() and the callers
+  std::vector<RowSpan> unexplained_spans_;   // scratch of chaseUnexplained()
+  std::vector<Footprint> unexplained_footprints_;
   std::vector<Eigen::Vector3d> plant_targets_;
   Eigen::VectorXd plant_probe_;
   std::vector<RestartLimb> restart_limbs_;  // FilterOptions::refine_restart_share

@@ -88,6 +88,15 @@ struct FilterOptions {
   // if it beats the pose. A limb settled on the wrong part of the silhouette (one leg on the
   // other's) scores better than any pose a few steps away, so no local step leaves it. 0: off.
   double refine_restart_share = 0;
+  // factored, with a refinement, for a model with `feet`: each frame, after the restarts and
+  // swaps, the silhouette the pose leaves unexplained is chased (unexplained.h). In each camera the
+  // largest blob's centroid gives a ray, and each leg's knee, then ankle, is moved by its hip and
+  // knee angles to the ray's point nearest it if that point is below the hip (world z up), one
+  // evaluation each; the best is searched locally on its leg's angles but the facing twists (up
+  // to 2 poses per angle) and kept if it beats the pose. A leg lost inside the trunk explains
+  // nothing new and costs nothing, so no local step pulls it out; the blob it left says where it
+  // went.
+  bool refine_unexplained = false;
   // factored, with a refinement: the weight of a prior that the pelvis faces where the legs do,
   // for a model that names its legs' twists (BodyModel::facing_twists): the refinement scores a
   // pose by its log-likelihood minus W (c / s)^2, c the mean of those twists (each signed by its

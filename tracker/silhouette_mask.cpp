@@ -50,11 +50,22 @@ long SilhouetteMask::total() const {
   return sum;
 }
 
-cv::Mat SilhouetteMask::toMat() const {
-  cv::Mat out(height_, width_, CV_8UC1);
-  for (int y = 0; y < height_; ++y) {
+cv::Mat SilhouetteMask::toMat() const { return toMat(cv::Rect(0, 0, width_, height_)); }
+
+cv::Mat SilhouetteMask::toMat(const cv::Rect& roi) const {
+  if ((roi & cv::Rect(0, 0, width_, height_)) != roi)
+    throw std::invalid_argument("silhouette mask: region outside the mask");
+  cv::Mat out(roi.size(), CV_8UC1);
+  for (int y = 0; y < roi.height; ++y) {
+    const Word* words = words_.data() + static_cast<std::size_t>(roi.y + y) * words_per_row_;
     uint8_t* dst = out.ptr<uint8_t>(y);
-    for (int x = 0; x < width_; ++x) dst[x] = count(y, x, x + 1) ? 255 : 0;
+    for (int i = 0; i < roi.width; ++i) {
+      const int x = roi.x + i;
+      // Pixel 64 w + i is bit i + 1 of word w, but for i = 63, which only the counts hold.
+      const bool set = (x & 63) != 63 ? (words[x >> 6].bits >> ((x & 63) + 1)) & 1
+                                      : count(roi.y + y, x, x + 1) != 0;
+      dst[i] = set ? 255 : 0;
+    }
   }
   return out;
 }

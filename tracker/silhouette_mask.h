@@ -57,8 +57,9 @@ class SilhouetteMask {
   }
   // Foreground pixels in the whole mask.
   long total() const;
-  // Back to an 8-bit 0/255 image.
+  // Back to an 8-bit 0/255 image, whole or the part in `roi` (within the mask).
   cv::Mat toMat() const;
+  cv::Mat toMat(const cv::Rect& roi) const;
 
  private:
   int width_ = 0;

@@ -49,7 +49,7 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
       "cameras:\n  - {driver: fake, width: 780, height: 580}\n"
       "tracker: {evaluations: 2000, inject: segment, injection: 0.05, lookahead: body, refine: 0.4,"
       " refine_hold: true, refine_plant: true, refine_swap: true, refine_restarts: 0.14,"
-      " refine_facing_prior: 16, refine_max: 30, dofs: gait}\n",
+      " refine_facing_prior: 16, refine_max: 30, refine_unexplained: true, dofs: gait}\n",
       "test.yaml", ".");
   EXPECT_EQ(config.tracker.filterOptions().refine_max_evaluations, 30);
   EXPECT_EQ(config.tracker.lookahead, "body");
@@ -60,6 +60,7 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   EXPECT_TRUE(config.tracker.refine_swap);
   EXPECT_EQ(config.tracker.refine_restarts, 0.14);
   EXPECT_EQ(config.tracker.refine_facing_prior, 16);
+  EXPECT_TRUE(config.tracker.filterOptions().refine_unexplained);
   // Unset, they are the paper's filter.
   const ServerConfig plain = parseConfig(kDefaultConfigYaml, "default", ".");
   EXPECT_EQ(plain.tracker.lookahead, "none");
@@ -70,6 +71,7 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
   EXPECT_FALSE(plain.tracker.refine_swap);
   EXPECT_EQ(plain.tracker.refine_restarts, 0);
   EXPECT_EQ(plain.tracker.refine_facing_prior, 0);
+  EXPECT_FALSE(plain.tracker.refine_unexplained);
   EXPECT_EQ(plain.tracker.dofs, "all");
 }
 
@@ -175,6 +177,7 @@ TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
   EXPECT_EQ(daemon.refine_swap, experiment.refine_swap);
   EXPECT_EQ(daemon.refine_restart_share, experiment.refine_restart_share);
   EXPECT_EQ(daemon.refine_facing_prior, experiment.refine_facing_prior);
+  EXPECT_EQ(daemon.refine_unexplained, experiment.refine_unexplained);
 }
 
 TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKeys) {
@@ -185,6 +188,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   recorded.dofs = "gait";
   recorded.refine_swap = true;  // not the people default: must come back from the session
   recorded.refine_max = 30;     // likewise
+  recorded.refine_unexplained = !recorded.refine_unexplained;  // likewise
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
 
   // A configuration without tracker keys: the session's settings, the configuration's threads.
@@ -203,6 +207,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_TRUE(as_recorded.refine_swap);
   EXPECT_EQ(as_recorded.refine_restarts, 0.14);
   EXPECT_EQ(as_recorded.refine_max, 30);
+  EXPECT_EQ(as_recorded.refine_unexplained, recorded.refine_unexplained);
   EXPECT_EQ(as_recorded.dofs, "gait");
   EXPECT_EQ(as_recorded.threads, 1);
 
@@ -257,6 +262,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},
+      {cameras + "tracker: {refine_unexplained: often}\n", "tracker.refine_unexplained"},
       {cameras + "tracker: {dofs: arms}\n", "tracker.dofs: expected all or gait, got 'arms'"},
       {cameras + "tracker: {start: somewhere}\n",
        "tracker.start: expected auto, acquire or neutral, got 'somewhere'"},

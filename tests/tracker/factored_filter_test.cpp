@@ -553,17 +553,22 @@ TEST(FactoredFilter, RefinementRestartsRecoverALimbFarFromItsSilhouette) {
   EXPECT_GT(trackedFootError(0), 0.3);
 }
 
+// Two cameras at 480x360 on legsWithFeet (twoCameras' geometry, twice the focal length and size),
+// so the legs cover enough pixels for the swap's default margin and the chase's blobs.
+Rig twoCamerasOnTheLegs() {
+  Rig rig;
+  for (const CameraModel& small : twoCameras(Eigen::Vector3d(0, 0, 0.5), 0.6))
+    rig.push_back(CameraModel::lookAt(small.name, small.center(), Eigen::Vector3d(0, 0, 0.5),
+                                      Eigen::Vector3d::UnitZ(), 480, 360, 400));
+  return rig;
+}
+
 // A stride tracked the wrong way round: the right leg back where the left one is, and the other
 // way round. Swinging one leg through to its side leaves both legs on one silhouette leg
 // half-way, so local steps stay put; exchanging the legs' angles gets there at once.
 TEST(FactoredFilter, RefinementSwappingTheLegsUndoesAStrideTrackedTheWrongWayRound) {
   const BodyModel model = legsWithFeet();
-  // Two cameras at 480x360 (twoCameras' geometry, twice the focal length and size), so the legs
-  // cover enough pixels for the default margin.
-  Rig rig;
-  for (const CameraModel& small : twoCameras(Eigen::Vector3d(0, 0, 0.5), 0.6))
-    rig.push_back(CameraModel::lookAt(small.name, small.center(), Eigen::Vector3d(0, 0, 0.5),
-                                      Eigen::Vector3d::UnitZ(), 480, 360, 400));
+  const Rig rig = twoCamerasOnTheLegs();
   const double deg = M_PI / 180;
   Eigen::VectorXd truth(5), start(5);
   // Pelvis height, then the right hip and knee, then the left's.
@@ -608,6 +613,27 @@ TEST(FactoredFilter, RefinementSwappingTheLegsUndoesAStrideTrackedTheWrongWayRou
     EXPECT_NE(std::string(e.what()).find("refine_swap"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("feet"), std::string::npos) << e.what();
   }
+}
+
+// A leg the tracker holds straight down while the truth swings it forward: every angle between
+// the two puts the leg on empty background, so no local step gets there and none is taken. The
+// true leg is left unexplained in both views, and aiming the knee and the ankle at that blob puts
+// the leg on it.
+TEST(FactoredFilter, RefinementChasingTheUnexplainedSilhouetteFindsALostLeg) {
+  const BodyModel model = legsWithFeet();
+  const Rig rig = twoCamerasOnTheLegs();
+  const double deg = M_PI / 180;
+  Eigen::VectorXd truth(5), start(5);
+  truth << 0, 80 * deg, 0, 0, 0;
+  start << 0, 0, 0, 0, 0;
+  const std::vector<SilhouetteMask> masks = silhouettes(model, rig, truth);
+  const auto hipError = [&](bool chase) {
+    FilterOptions options;
+    options.refine_unexplained = chase;
+    return std::abs(refineAlone(model, rig, masks, start, options)[1] - truth[1]) / deg;
+  };
+  EXPECT_LT(hipError(true), 3);
+  EXPECT_GT(hipError(false), 40);
 }
 
 TEST(FactoredFilter, OptionNamesAreParsedAndBadOnesNamed) {

@@ -56,6 +56,9 @@ TEST(SilhouetteMask, RoundTripsImagesOfAnyWidth) {
     const SilhouetteMask mask(image);
     ASSERT_EQ(cv::countNonZero(mask.toMat() != (image != 0)), 0) << "width " << width;
     ASSERT_EQ(mask.total(), cv::countNonZero(image)) << "width " << width;
+    // A region across the word boundaries.
+    const cv::Rect roi(width / 3, 1, width - width / 3 - width / 5, 3);
+    ASSERT_EQ(cv::countNonZero(mask.toMat(roi) != (image(roi) != 0)), 0) << "width " << width;
     for (int trial = 0; trial < 200; ++trial) {
       const int y = std::uniform_int_distribution<int>(0, 4)(rng);
       int a = std::uniform_int_distribution<int>(0, width)(rng);
@@ -67,6 +70,8 @@ TEST(SilhouetteMask, RoundTripsImagesOfAnyWidth) {
       ASSERT_EQ(row.before(b) - row.before(a), mask.count(y, a, b));
     }
   }
+  EXPECT_THROW(SilhouetteMask(cv::Mat::zeros(4, 8, CV_8UC1)).toMat(cv::Rect(4, 0, 5, 4)),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -22,7 +22,7 @@ inline constexpr const char* kHumanUsage =
     "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
     "       [--lost-below FIT [--lost-after N]] [--dropout-at F --dropout-frames N]\n"
     "       [--refine SHARE] [--refine-max N] [--refine-step SPEEDS]\n"
-    "       [--refine-hold 0|1] [--refine-plant 0|1]\n"
+    "       [--refine-hold 0|1] [--refine-plant 0|1] [--refine-unexplained 0|1]\n"
     "       [--refine-swap 0|1 [--refine-swap-knees 0|1] [--refine-swap-margin PIXELS]]\n"
     "       [--refine-restarts SHARE] [--refine-facing-prior W]";
 int runHumanCommand(int argc, char** argv);

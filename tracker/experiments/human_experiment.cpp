@@ -391,6 +391,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"refine_max", refined ? options.refine_max_evaluations : 0},
       {"refine_hold", refined && options.refine_hold},
       {"refine_plant", refined && options.refine_plant},
+      {"refine_unexplained", refined && options.refine_unexplained},
       {"refine_swap", refined && options.refine_swap},
       {"refine_swap_knees_only", refined && options.refine_swap && options.refine_swap_knees_only},
       {"refine_swap_margin", refined && options.refine_swap ? options.refine_swap_margin : 0.0},
@@ -482,6 +483,8 @@ int runHumanCommand(int argc, char** argv) {
       args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
   config.filter.refine_plant =
       args.integer("refine-plant", config.filter.refine_plant ? 1 : 0, 0, 1) == 1;
+  config.filter.refine_unexplained =
+      args.integer("refine-unexplained", config.filter.refine_unexplained ? 1 : 0, 0, 1) == 1;
   config.filter.refine_swap =
       args.integer("refine-swap", config.filter.refine_swap ? 1 : 0, 0, 1) == 1;
   config.filter.refine_swap_knees_only =
