@@ -23,7 +23,8 @@ constexpr auto kPollInterval = std::chrono::milliseconds(100);
 // A background capture gives up when no camera contributed a frame for this long: a stalled camera
 // must not hold the RPC forever.
 constexpr int64_t kCaptureStallNs = 3'000'000'000;
-// A captured background with more of its image unsteady than this is reported (unsteadyShare).
+// A captured background with more of its image unsteady than this is reported (unsteadyShare), and
+// likewise with more of it changed from the background it replaces (changedShare).
 // Fixed before measuring; then, in the fake scene's two 780x580 views, 25 frames: the empty room
 // 0.00 %, the person walking in the lab rig's view 2.2 and 2.4 % (a person standing still is not
 // seen by it).
@@ -400,6 +401,7 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
     endCapture(capture.done, {BackgroundError::kUnusable, error.what(), 0, {}});
     return true;
   }
+  const std::vector<std::shared_ptr<const BackgroundModel>> replaced = backgrounds_in_use_;
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     useBackground(c, models[c], std::move(extractors[c]));
     setSilhouetteSource(c, "background captured");
@@ -420,8 +422,32 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
     logWarning() << warning.str();
     learned.warnings.push_back(warning.str());
   }
+  // Someone standing still through the capture is steady in it; the background it replaces (if
+  // any, of the same image format) still shows the room without them.
+  std::ostringstream changed_shares;
+  changed_shares << std::fixed << std::setprecision(2);
+  for (std::size_t c = 0; c < models.size(); ++c) {
+    const BackgroundModel* before = replaced[c].get();
+    if (!before || before->size() != models[c]->size() ||
+        before->channels() != models[c]->channels())
+      continue;
+    const double share = changedShare(*before, *models[c]);
+    changed_shares << (changed_shares.tellp() > 0 ? ", " : "") << "camera " << c << " "
+                   << 100 * share << " %";
+    if (share <= kUnsteadyShareWarning) continue;
+    std::ostringstream warning;
+    warning << "camera " << c << " (" << cameras_[c].info.id << "): " << std::fixed
+            << std::setprecision(1) << 100 * share
+            << " % of the image differs from the background it replaces (someone in view, or the "
+               "room or its lighting changed?): if someone stood in view, capture again with the "
+               "room empty";
+    logWarning() << warning.str();
+    learned.warnings.push_back(warning.str());
+  }
   logInfo() << "background learned from " << capture.frames
-            << " frames per camera; changed during the capture: " << shares.str();
+            << " frames per camera; changed during the capture: " << shares.str()
+            << (changed_shares.tellp() > 0 ? "; from the background replaced: " : "")
+            << changed_shares.str();
   if (config_.background_directory.empty()) {
     endCapture(capture.done, learned);
     return true;

@@ -133,7 +133,8 @@ struct BackgroundResult {
   BackgroundError error = BackgroundError::kNone;
   std::string message;
   int frames_used = 0;  // per camera
-  // Learned and in use, but doubtful: a camera whose image changed during the capture.
+  // Learned and in use, but doubtful: a camera whose image changed during the capture, or differs
+  // from the background it replaced.
   std::vector<std::string> warnings;
 };
 

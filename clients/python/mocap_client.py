@@ -94,7 +94,8 @@ class MocapClient:
     def capture_background(self, frames=0):
         """Has the daemon learn the empty scene as every camera's background from its next
         `frames` frames (0: the daemon's default); returns the CaptureBackgroundResponse (frames
-        used per camera, warnings about cameras whose image changed during the capture)."""
+        used per camera, warnings about cameras whose image changed during the capture or differs
+        from the background it replaced)."""
         request = self.pb.CaptureBackgroundRequest(frames=frames)
         return self._stub.CaptureBackground(request, metadata=self._metadata,
                                             timeout=60 + max(frames, 25))

@@ -70,6 +70,21 @@ double unsteadyShare(const BackgroundModel& model, double grey_levels) {
          static_cast<double>(model.stddev.total());
 }
 
+double changedShare(const BackgroundModel& before, const BackgroundModel& after, double sigmas,
+                    double min_difference) {
+  if (before.size() != after.size() || before.channels() != after.channels())
+    throw std::invalid_argument(
+        "changed share: the two background models differ in size or channels");
+  if (before.empty()) return 0;
+  const cv::Mat moved = cv::abs(after.mean - before.mean);
+  const cv::Mat limit = cv::max(before.stddev * sigmas, min_difference);
+  const cv::Mat excess = cv::Mat(moved - limit).reshape(1, static_cast<int>(before.mean.total()));
+  cv::Mat largest;
+  cv::reduce(excess, largest, 1, cv::REDUCE_MAX);  // the largest channel of each pixel
+  return static_cast<double>(cv::countNonZero(largest > 0)) /
+         static_cast<double>(before.mean.total());
+}
+
 namespace {
 
 // Writes the model to `path` with FileStorage; throws naming `path`.

@@ -42,6 +42,14 @@ BackgroundModel learnBackground(const std::vector<cv::Mat>& frames);
 // noise stays far below the default (5 sigma of a noisy camera's 3 grey levels).
 double unsteadyShare(const BackgroundModel& model, double grey_levels = 15);
 
+// The share of pixels (0 to 1) whose mean, in any channel, moved from `before` to `after` by more
+// than max(sigmas * before's standard deviation, min_difference) grey levels (the silhouette
+// extractor's default test): what changed in the room between two captures. Someone standing
+// still through a capture is steady in it, but not in the background it replaces. Throws
+// std::invalid_argument if the models differ in size or channels.
+double changedShare(const BackgroundModel& before, const BackgroundModel& after, double sigmas = 4,
+                    double min_difference = 9);
+
 // OpenCV FileStorage (YAML or XML by extension, ".gz" appended compresses), matrices in base64.
 // saveBackground replaces `path` atomically (a hidden temporary file in the same directory, read
 // back, flushed, then renamed) and throws std::runtime_error naming the file; loadBackground throws

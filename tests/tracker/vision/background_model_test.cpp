@@ -63,6 +63,36 @@ TEST(BackgroundModel, UnsteadyShareCountsThePixelsThatChangedDuringTheCapture) {
   }
 }
 
+// Someone standing still through a capture leaves it steady, but the background it replaces shows
+// them: two captures of the empty room differ by noise alone, one with a still patch by its share.
+TEST(BackgroundModel, ChangedShareCountsWhatMovedSinceTheBackgroundItReplaces) {
+  for (int type : {CV_8UC1, CV_8UC3}) {
+    // One room, two captures of 25 frames with their own noise.
+    const std::vector<cv::Mat> frames = noisyFrames(type, 50, 3.0);
+    const std::vector<cv::Mat> first(frames.begin(), frames.begin() + 25);
+    std::vector<cv::Mat> second(frames.begin() + 25, frames.end());
+    const BackgroundModel before = learnBackground(first);
+    EXPECT_EQ(changedShare(before, learnBackground(second)), 0.0) << type;
+    // A 10 % patch 30 levels brighter in the first channel in every frame: steady, but changed.
+    for (cv::Mat& frame : second) {
+      cv::Mat patch = frame(cv::Rect(5, 5, 12, 10));
+      std::vector<cv::Mat> channels;
+      cv::split(patch, channels);
+      channels.front() += 30;
+      cv::merge(channels, patch);
+    }
+    const BackgroundModel after = learnBackground(second);
+    EXPECT_EQ(unsteadyShare(after), 0.0) << type;
+    EXPECT_NEAR(changedShare(before, after), 0.10, 1e-9) << type;
+    // The floor of the test decides for a change well above the noise: 25 levels count, 40 not.
+    EXPECT_NEAR(changedShare(before, after, 4, 25), 0.10, 1e-9) << type;
+    EXPECT_EQ(changedShare(before, after, 4, 40), 0.0) << type;
+  }
+  const BackgroundModel gray = learnBackground(noisyFrames(CV_8UC1, 5, 3.0));
+  const BackgroundModel colour = learnBackground(noisyFrames(CV_8UC3, 5, 3.0));
+  EXPECT_THROW(changedShare(gray, colour), std::invalid_argument);
+}
+
 TEST(BackgroundModel, RefusesMismatchedFrames) {
   BackgroundLearner learner;
   EXPECT_TRUE(learner.add(cv::Mat(10, 10, CV_8UC3, cv::Scalar::all(7))));
