@@ -225,12 +225,11 @@ class ConfigParser {
     return c;
   }
 
-  // Whether the body model file `path` (not a built-in) says `kind: person`. Read here, so a bad
-  // model file is refused with the configuration, naming the field.
-  bool bodyFileIsAPerson(const YAML::Node& node, const std::string& path) const {
-    if (path.empty() || path.rfind("builtin:", 0) == 0) return false;
+  // The body model file `path` (not a built-in). Read here, so a bad model file is refused with
+  // the configuration, naming the field.
+  std::shared_ptr<const BodyModel> bodyFile(const YAML::Node& node, const std::string& path) const {
     try {
-      return loadBodyModel(path).person;
+      return std::make_shared<const BodyModel>(loadBodyModel(path));
     } catch (const std::exception& e) {
       fail(node, "body_model", e.what());
     }
@@ -345,6 +344,8 @@ class ConfigParser {
       if (model.rfind("builtin:", 0) == 0 && model != "builtin:hand" && model != "builtin:human")
         fail(root["body_model"], "body_model",
              "unknown built-in model (known: builtin:hand, builtin:human)");
+      if (model.rfind("builtin:", 0) != 0)
+        config.body_model_file = bodyFile(root["body_model"], config.body_model);
     }
     if (root["scene_motion"]) {
       config.scene_motion = existingFile(root["scene_motion"], "scene_motion");
@@ -368,7 +369,7 @@ class ConfigParser {
     }
 
     if (config.body_model == "builtin:human" || !config.scene_motion.empty() ||
-        bodyFileIsAPerson(root["body_model"], config.body_model))
+        (config.body_model_file && config.body_model_file->person))
       config.tracker = TrackerSettings::forPeople();
     if (const YAML::Node tracker = root["tracker"]) {
       trackerKeys(tracker, config.tracker);

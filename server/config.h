@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -92,6 +93,9 @@ struct ServerConfig {
   // Body model YAML, "builtin:hand" or "builtin:human"; empty: the model the cameras' driver
   // describes (the fake scene's hand, or the human with a scene motion).
   std::string body_model;
+  // That file as the configuration check read it (null for a built-in, none, or a configuration
+  // not parsed from YAML): the server tracks this one rather than reading the file again.
+  std::shared_ptr<const BodyModel> body_model_file;
   // Fake scene only: a BVH file (CMU's skeleton) the scene plays, retargeted at the cameras' rate
   // onto the body model fitted to the recorded subject; the tracker tracks that fitted body.
   std::string scene_motion;

@@ -66,6 +66,8 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       server->model_ = std::make_unique<BodyModel>(builtinHandModel());
     } else if (config.body_model == "builtin:human") {
       server->model_ = std::make_unique<BodyModel>(builtinHumanModel());
+    } else if (config.body_model_file) {
+      server->model_ = std::make_unique<BodyModel>(*config.body_model_file);
     } else if (!config.body_model.empty()) {
       server->model_ = std::make_unique<BodyModel>(loadBodyModel(config.body_model));
     }

@@ -149,6 +149,12 @@ TEST(ConfigTest, ABodyModelFileSaysWhetherItIsAPerson) {
       parseConfig(cameras + "body_model: " + models + "hand.yaml\n", "test.yaml", ".");
   EXPECT_EQ(hand.tracker.evaluations, 375);
   EXPECT_EQ(hand.tracker.lookahead, "none");
+  // Each file read once, here; the server tracks that model (end_to_end_test).
+  ASSERT_TRUE(person.body_model_file && hand.body_model_file);
+  EXPECT_TRUE(person.body_model_file->person);
+  EXPECT_FALSE(hand.body_model_file->person);
+  EXPECT_FALSE(
+      parseConfig(cameras + "body_model: builtin:human\n", "test.yaml", ".").body_model_file);
 
   // A model file that does not load is refused with the configuration.
   const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "config_kind";

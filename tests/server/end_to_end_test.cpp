@@ -675,6 +675,23 @@ TEST_F(EndToEndTest, TracksWithSpeedLimitsPerFrameAtTheCamerasRate) {
   }
 }
 
+// The body model file is read once, by the configuration check: the server tracks that model even
+// if the file has changed (here: broken) since.
+TEST_F(EndToEndTest, TracksTheBodyFileAsTheConfigurationReadIt) {
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "body_read_once";
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(MOCAP_SOURCE_DIR "/tracker/models/human.yaml", dir / "subject.yaml",
+                             std::filesystem::copy_options::overwrite_existing);
+  const ServerConfig config = parseConfig(
+      "cameras:\n  - {driver: fake, width: 780, height: 580}\nbody_model: subject.yaml\n",
+      "test.yaml", dir.string());
+  std::ofstream(dir / "subject.yaml", std::ios::trunc) << "kind: horse\n";
+  Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+  ASSERT_TRUE(server.ok()) << server.error();
+  EXPECT_EQ(server.value()->model().segments.size(), builtinHumanModel().segments.size());
+  EXPECT_TRUE(server.value()->model().person);
+}
+
 // tracker.dofs: gait tracks the 17 gait DOFs of the walking person; the others hold the starting
 // pose in every published pose. A body without gait DOFs (the hand) is refused naming the key.
 TEST_F(EndToEndTest, TracksTheGaitDofsWhenTheConfigurationSaysSo) {
