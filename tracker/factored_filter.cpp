@@ -729,21 +729,21 @@ class FactoredFilter final : public PoseFilter {
   // and without them hip and knee have three angles for the foot's three coordinates).
   void findLegs() {
     for (const std::string& name : model_.feet) {
-      Leg foot;
-      foot.segment = model_.segmentIndex(name);
-      for (int s = foot.segment; s >= 0; s = model_.segments[s].parent)
-        foot.chain.insert(foot.chain.begin(), s);
-      const int knee = model_.segments[foot.segment].parent;
-      for (int s : {model_.segments[knee].parent, knee, foot.segment})
+      Leg leg;
+      leg.segment = model_.segmentIndex(name);
+      for (int s = leg.segment; s >= 0; s = model_.segments[s].parent)
+        leg.chain.insert(leg.chain.begin(), s);
+      const int knee = model_.segments[leg.segment].parent;
+      for (int s : {model_.segments[knee].parent, knee, leg.segment})
         for (int d : model_.segments[s].dofs) {
           const Dof& dof = model_.dofs[d];
           const bool facing = std::find(model_.facing_twists.begin(), model_.facing_twists.end(),
                                         dof.name) != model_.facing_twists.end();
           if (!dof.isFree() || dof.type != DofType::kRotation || facing) continue;
-          foot.rotations.push_back(d);
-          if (s != foot.segment) foot.dofs.push_back(d);
+          leg.rotations.push_back(d);
+          if (s != leg.segment) leg.dofs.push_back(d);
         }
-      if (!foot.dofs.empty()) legs_.push_back(std::move(foot));
+      if (!leg.dofs.empty()) legs_.push_back(std::move(leg));
     }
   }
 
@@ -751,28 +751,28 @@ class FactoredFilter final : public PoseFilter {
   // pelvis) so each foot's joint stays where it is at q.
   void plantFeet(const Eigen::VectorXd& q, Eigen::VectorXd& tried) {
     KinematicsData& kin = plant_kinematics_;
-    std::vector<Eigen::Vector3d>& targets = plant_targets_;
+    std::vector<Eigen::Vector3d>& targets = joint_points_;
     targets.clear();
-    for (const Leg& foot : legs_) {
-      forwardKinematics(model_, kin, q, foot.chain);
-      targets.push_back(kin.world[foot.segment].translation());
+    for (const Leg& leg : legs_) {
+      forwardKinematics(model_, kin, q, leg.chain);
+      targets.push_back(kin.world[leg.segment].translation());
     }
     for (std::size_t f = 0; f < legs_.size(); ++f)
       moveJointTo(legs_[f], legs_[f].segment, targets[f], tried);
   }
 
-  // Moves the origin of `segment` (the foot's or a segment above it on its chain) towards `target`
-  // by the foot's hip and knee angles in `tried`: damped Gauss-Newton steps on a numeric Jacobian,
-  // clamped to the joint limits.
-  void moveJointTo(const Leg& foot, int segment, const Eigen::Vector3d& target,
+  // Moves the origin of `segment` (the leg's foot or a segment above it on its chain) towards
+  // `target` by the leg's hip and knee angles in `tried`: damped Gauss-Newton steps on a numeric
+  // Jacobian, clamped to the joint limits.
+  void moveJointTo(const Leg& leg, int segment, const Eigen::Vector3d& target,
                    Eigen::VectorXd& tried) {
     constexpr int kIterations = 6;
     constexpr double kTolerance = 1e-4, kProbe = 1e-5, kDamping = 1e-4;  // metres, radians
     KinematicsData& kin = plant_kinematics_;
     Eigen::VectorXd& probe = plant_probe_;
-    const int n = static_cast<int>(foot.dofs.size());
+    const int n = static_cast<int>(leg.dofs.size());
     for (int iteration = 0; iteration < kIterations; ++iteration) {
-      forwardKinematics(model_, kin, tried, foot.chain);
+      forwardKinematics(model_, kin, tried, leg.chain);
       const Eigen::Vector3d at = kin.world[segment].translation();
       const Eigen::Vector3d residual = target - at;
       if (residual.norm() < kTolerance) break;
@@ -780,8 +780,8 @@ class FactoredFilter final : public PoseFilter {
       Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxPlantDofs> jacobian(3, n);
       for (int k = 0; k < n; ++k) {
         probe = tried;
-        probe[foot.dofs[k]] += kProbe;
-        forwardKinematics(model_, kin, probe, foot.chain);
+        probe[leg.dofs[k]] += kProbe;
+        forwardKinematics(model_, kin, probe, leg.chain);
         jacobian.col(k) = (kin.world[segment].translation() - at) / kProbe;
       }
       using Square =
@@ -790,8 +790,8 @@ class FactoredFilter final : public PoseFilter {
       const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxPlantDofs, 1> change =
           normal.ldlt().solve(jacobian.transpose() * residual);
       for (int k = 0; k < n; ++k) {
-        const Dof& dof = model_.dofs[foot.dofs[k]];
-        tried[foot.dofs[k]] = std::clamp(tried[foot.dofs[k]] + change[k], dof.min, dof.max);
+        const Dof& dof = model_.dofs[leg.dofs[k]];
+        tried[leg.dofs[k]] = std::clamp(tried[leg.dofs[k]] + change[k], dof.min, dof.max);
       }
     }
   }
@@ -917,7 +917,7 @@ class FactoredFilter final : public PoseFilter {
     if (legs_.empty() || budget <= 2) return;
     KinematicsData& kin = plant_kinematics_;
     forwardKinematics(model_, kin, q);
-    std::vector<Eigen::Vector3d>& joints = plant_targets_;  // per leg: hip, knee, ankle
+    std::vector<Eigen::Vector3d>& joints = joint_points_;  // per leg: hip, knee, ankle
     joints.clear();
     for (const Leg& leg : legs_) {
       const int knee = model_.segments[leg.segment].parent;
@@ -1081,8 +1081,8 @@ class FactoredFilter final : public PoseFilter {
   KinematicsData plant_kinematics_{model_};  // scratch of moveJointTo() and the callers
   std::vector<RowSpan> unexplained_spans_;   // scratch of chaseUnexplained()
   std::vector<Footprint> unexplained_footprints_;
-  std::vector<Eigen::Vector3d> plant_targets_;
-  Eigen::VectorXd plant_probe_;
+  std::vector<Eigen::Vector3d> joint_points_;  // scratch of plantFeet() and chaseUnexplained()
+  Eigen::VectorXd plant_probe_;                // scratch of moveJointTo()
   std::vector<RestartLimb> restart_limbs_;  // FilterOptions::refine_restart_share
   int restart_draws_ = 0;
   long restart_frame_ = 0;
