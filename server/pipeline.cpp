@@ -408,41 +408,35 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
   }
   // Installed anyway: the operator, told, decides whether to capture again.
   BackgroundResult learned{BackgroundError::kNone, "", capture.frames, {}};
-  std::ostringstream shares;
-  shares << std::fixed << std::setprecision(2);
-  for (std::size_t c = 0; c < models.size(); ++c) {
-    const double share = unsteadyShare(*models[c]);
-    shares << (c ? ", " : "") << 100 * share << " %";
-    if (share <= kDoubtfulShare) continue;
+  // Notes camera c's share in `shares` (after `label`) and warns, naming the camera, if it is over
+  // the limit.
+  const auto judge = [&](std::size_t c, double share, std::ostringstream& shares,
+                         const std::string& label, const char* what) {
+    shares << (shares.tellp() > 0 ? ", " : "") << label << std::fixed << std::setprecision(2)
+           << 100 * share << " %";
+    if (share <= kDoubtfulShare) return;
     std::ostringstream warning;
     warning << "camera " << c << " (" << cameras_[c].info.id << "): " << std::fixed
-            << std::setprecision(1) << 100 * share
-            << " % of the image changed during the capture (someone moving in view?): its "
-               "background holds them; capture again with the room empty";
+            << std::setprecision(1) << 100 * share << " % of the image " << what;
     logWarning() << warning.str();
     learned.warnings.push_back(warning.str());
-  }
+  };
+  std::ostringstream shares;
+  for (std::size_t c = 0; c < models.size(); ++c)
+    judge(c, unsteadyShare(*models[c]), shares, "",
+          "changed during the capture (someone moving in view?): its background holds them; "
+          "capture again with the room empty");
   // Someone standing still through the capture is steady in it; the background it replaces (if
   // any, of the same image format) still shows the room without them.
   std::ostringstream changed_shares;
-  changed_shares << std::fixed << std::setprecision(2);
   for (std::size_t c = 0; c < models.size(); ++c) {
     const BackgroundModel* before = replaced[c].get();
     if (!before || before->size() != models[c]->size() ||
         before->channels() != models[c]->channels())
       continue;
-    const double share = changedShare(*before, *models[c]);
-    changed_shares << (changed_shares.tellp() > 0 ? ", " : "") << "camera " << c << " "
-                   << 100 * share << " %";
-    if (share <= kDoubtfulShare) continue;
-    std::ostringstream warning;
-    warning << "camera " << c << " (" << cameras_[c].info.id << "): " << std::fixed
-            << std::setprecision(1) << 100 * share
-            << " % of the image differs from the background it replaces (someone in view, or the "
-               "room or its lighting changed?): if someone stood in view, capture again with the "
-               "room empty";
-    logWarning() << warning.str();
-    learned.warnings.push_back(warning.str());
+    judge(c, changedShare(*before, *models[c]), changed_shares, "camera " + std::to_string(c) + " ",
+          "differs from the background it replaces (someone in view, or the room or its lighting "
+          "changed?): if someone stood in view, capture again with the room empty");
   }
   logInfo() << "background learned from " << capture.frames
             << " frames per camera; changed during the capture: " << shares.str()

@@ -155,8 +155,6 @@ class FactoredFilter final : public PoseFilter {
     }
 
     for (const CameraModel& c : rig) max_rows_ = std::max(max_rows_, c.height);
-    if (refiner_ && options.refine_unexplained)
-      unexplained_spans_.resize(model.segments.size() * max_rows_);
     candidates_.resize(candidates_per_layer_);
     candidate_spans_.resize(static_cast<std::size_t>(candidates_per_layer_) * rig.size() *
                             max_rows_);
@@ -584,7 +582,7 @@ class FactoredFilter final : public PoseFilter {
     Eigen::VectorXd& sweep_start = refine_sweep_start_;
     if (restart_draws_ > 0) restartLimb(q, best, budget);
     if (!swap_pairs_.empty()) swapLegs(q, best, budget);
-    if (options_.refine_unexplained) chaseUnexplained(masks, q, best, budget, estimate);
+    if (options_.refine_unexplained) chaseUnexplained(masks, q, best, budget);
     while (budget > 0 && !estimate.cut_short) {
       sweep_start = q;
       const int budget_before_sweep = budget;
@@ -908,7 +906,7 @@ class FactoredFilter final : public PoseFilter {
   // those poses is searched locally on its leg's angles and kept if it beats the pose; otherwise
   // the evaluator goes back to q.
   void chaseUnexplained(const std::vector<SilhouetteMask>& masks, Eigen::VectorXd& q, double& best,
-                        int& budget, FrameEstimate& estimate) {
+                        int& budget) {
     // Fixed before measuring: a 5-pixel opening drops the slivers along the edges; a blob counts
     // from 2 % of the camera's silhouette (a forearm's or a shin's share) and 100 pixels.
     constexpr int kOpening = 5;
@@ -924,18 +922,10 @@ class FactoredFilter final : public PoseFilter {
       for (int s : {model_.segments[knee].parent, knee, leg.segment})
         joints.push_back(kin.world[s].translation());
     }
+    // The evaluator stands at q (every search before this one ends back at its pose).
     std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> rays;  // origin, unit direction
-    ShapeRasterizer& rasterizer = scratch_[0].rasterizer;           // the layers' workers are idle
     for (std::size_t c = 0; c < rig_.size(); ++c) {
-      unexplained_footprints_.clear();
-      for (std::size_t s = 0; s < model_.segments.size(); ++s) {
-        const Shape& shape = model_.segments[s].shape;
-        if (shape.type == ShapeType::kNone) continue;
-        RowSpan* spans = &unexplained_spans_[unexplained_footprints_.size() * max_rows_];
-        unexplained_footprints_.push_back(
-            rasterizer.rasterize(shape, kin.world[s], rig_[c], spans));
-      }
-      estimate.segment_renders += c == 0 ? static_cast<long>(unexplained_footprints_.size()) : 0;
+      refiner_->currentFootprints(c, unexplained_footprints_);
       const long min_area =
           std::max(kMinPixels, std::lround(kMinShare * static_cast<double>(masks[c].total())));
       const std::vector<UnexplainedBlob> blobs =
@@ -1079,8 +1069,7 @@ class FactoredFilter final : public PoseFilter {
   std::vector<double> refine_hold_steps_;            // per refined DOF
   std::vector<Leg> legs_;                    // FilterOptions::refine_plant and refine_unexplained
   KinematicsData plant_kinematics_{model_};  // scratch of moveJointTo() and the callers
-  std::vector<RowSpan> unexplained_spans_;   // scratch of chaseUnexplained()
-  std::vector<Footprint> unexplained_footprints_;
+  std::vector<Footprint> unexplained_footprints_;  // scratch of chaseUnexplained()
   std::vector<Eigen::Vector3d> joint_points_;  // scratch of plantFeet() and chaseUnexplained()
   Eigen::VectorXd plant_probe_;                // scratch of moveJointTo()
   std::vector<RestartLimb> restart_limbs_;  // FilterOptions::refine_restart_share

@@ -115,6 +115,12 @@ PixelCounts IncrementalBodyEvaluator::trial(const Eigen::VectorXd& q) {
   return trial_counts_;
 }
 
+void IncrementalBodyEvaluator::currentFootprints(std::size_t c, std::vector<Footprint>& out) const {
+  out.clear();
+  for (std::size_t k = 0; k < drawn_.size(); ++k)
+    out.push_back(footprints_[slotIndex(static_cast<int>(k), c, slot_[k])]);
+}
+
 void IncrementalBodyEvaluator::accept() {
   if (!pending_) return;
   // The rest stands where it stood, so its footprints and matched(R) stay valid.

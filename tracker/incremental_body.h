@@ -39,6 +39,8 @@ class IncrementalBodyEvaluator {
   void reject();
 
   const PixelCounts& counts() const { return counts_; }
+  // The current pose's footprint of every segment with a shape, in camera c (model order).
+  void currentFootprints(std::size_t c, std::vector<Footprint>& out) const;
   const Eigen::VectorXd& pose() const { return q_; }
   // Segments rasterized (in all cameras) so far, by resets and trials.
   long renders() const { return renders_; }
