@@ -11,6 +11,7 @@
 
 #include "tracker/full_body.h"
 #include "tracker/kinematics.h"
+#include "tracker/pose_search.h"
 
 namespace mocap {
 namespace {
@@ -181,60 +182,23 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
     if (apart) starts.push_back(std::move(candidate));
   }
 
-  // Coordinate search: a step that improves is kept and grows, one that fails both ways halves,
-  // until every step is finer than `finest` or the budget is spent.
-  auto search = [&](Start& start, const std::vector<int>& dofs, const std::vector<double>& first_step,
-                    const std::vector<double>& finest, int budget) {
-    std::vector<double> step = first_step;
-    bool moving = true;
-    while (budget > 0 && moving) {
-      moving = false;
-      for (std::size_t i = 0; i < dofs.size() && budget > 0; ++i) {
-        if (step[i] < finest[i]) continue;
-        moving = true;
-        bool improved = false;
-        for (double sign : {1.0, -1.0}) {
-          if (budget <= 0) break;
-          const Dof& dof = model.dofs[dofs[i]];
-          Eigen::VectorXd tried = start.q;
-          tried[dofs[i]] = std::clamp(start.q[dofs[i]] + sign * step[i], dof.min, dof.max);
-          --budget;
-          const double v = score(tried);
-          if (v > start.value) {
-            start.q = std::move(tried);
-            start.value = v;
-            step[i] *= 1.5;
-            improved = true;
-            break;
-          }
-        }
-        if (!improved) step[i] *= 0.5;
-      }
-    }
-  };
   // First the root's place and heading, then every free DOF: the limbs, fitted, tell the heading
   // the stance alone could not (a knee bends one way only).
-  std::vector<int> root_dofs = {root.x, root.y, root.yaw};
-  std::vector<double> root_step = {0.1, 0.1, M_PI / options.headings / 2};
-  std::vector<double> root_finest = {0.005, 0.005, M_PI / 360};
-  if (root.z >= 0) {
-    root_dofs.push_back(root.z);
-    root_step.push_back(0.05);
-    root_finest.push_back(0.005);
-  }
-  std::vector<int> all_dofs;
-  std::vector<double> all_step, all_finest;
+  SearchDofs root_search;
+  root_search.add(root.x, 0.1, 0.005);
+  root_search.add(root.y, 0.1, 0.005);
+  root_search.add(root.yaw, M_PI / options.headings / 2, M_PI / 360);
+  if (root.z >= 0) root_search.add(root.z, 0.05, 0.005);
+  SearchDofs all_search;
   for (std::size_t d = 0; d < model.dofs.size(); ++d) {
     if (!model.dofs[d].isFree()) continue;
     const bool metres = model.dofs[d].type == DofType::kTranslation;
-    all_dofs.push_back(static_cast<int>(d));
-    all_step.push_back(metres ? 0.05 : M_PI / 12);
-    all_finest.push_back(metres ? 0.005 : M_PI / 180);
+    all_search.add(static_cast<int>(d), metres ? 0.05 : M_PI / 12, metres ? 0.005 : M_PI / 180);
   }
   std::vector<Acquisition> found;
   for (Start& start : starts) {
-    search(start, root_dofs, root_step, root_finest, options.search_evaluations);
-    search(start, all_dofs, all_step, all_finest, options.fit_evaluations);
+    coordinateSearch(model, score, root_search, options.search_evaluations, start.q, start.value);
+    coordinateSearch(model, score, all_search, options.fit_evaluations, start.q, start.value);
     found.push_back({std::move(start.q), start.value, centre, 0});
   }
   std::stable_sort(found.begin(), found.end(), [](const Acquisition& a, const Acquisition& b) {

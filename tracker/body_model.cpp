@@ -146,7 +146,7 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
   p.onlyKeys(root, "(top)",
              {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "feet", "stances",
-              "segments"});
+              "fit_pose", "segments"});
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
   if (root["kind"]) {
@@ -257,6 +257,21 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
                    ? "needs a parent and a grandparent segment"
                    : "";
       });
+  // A stance's DOF values (every key but `name`), in the file's units, within the DOFs' limits.
+  auto stanceDofs = [&](const YAML::Node& node, const std::string& path, Stance& stance) {
+    for (const auto& entry : node) {
+      const std::string key = entry.first.Scalar();
+      if (key == "name") continue;
+      const int d = model.dofIndex(key);
+      if (d < 0) p.fail(entry.first, path + "." + key, "unknown DOF");
+      const Dof& dof = model.dofs[d];
+      const double unit = dof.type == DofType::kRotation ? kDegToRad : 1.0;
+      const double value = p.number(entry.second, path + "." + key) * unit;
+      if (value < dof.min - 1e-12 || value > dof.max + 1e-12)
+        p.fail(entry.second, path + "." + key, "outside the DOF's limits");
+      stance.dofs.emplace_back(d, value);
+    }
+  };
   if (const YAML::Node list = root["stances"]) {
     if (!list.IsSequence()) p.fail(list, "stances", "expected a list of stances");
     for (std::size_t k = 0; k < list.size(); ++k) {
@@ -265,20 +280,16 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
       if (!node.IsMap()) p.fail(node, path, "expected a map: name and DOF values");
       Stance stance;
       stance.name = p.text(p.require(node, "name", path), path + ".name");
-      for (const auto& entry : node) {
-        const std::string key = entry.first.Scalar();
-        if (key == "name") continue;
-        const int d = model.dofIndex(key);
-        if (d < 0) p.fail(entry.first, path + "." + key, "unknown DOF");
-        const Dof& dof = model.dofs[d];
-        const double unit = dof.type == DofType::kRotation ? kDegToRad : 1.0;
-        const double value = p.number(entry.second, path + "." + key) * unit;
-        if (value < dof.min - 1e-12 || value > dof.max + 1e-12)
-          p.fail(entry.second, path + "." + key, "outside the DOF's limits");
-        stance.dofs.emplace_back(d, value);
-      }
+      stanceDofs(node, path, stance);
       model.stances.push_back(std::move(stance));
     }
+  }
+  if (const YAML::Node node = root["fit_pose"]) {
+    if (!node.IsMap()) p.fail(node, "fit_pose", "expected a map of DOF values");
+    Stance pose;
+    pose.name = "fit_pose";
+    stanceDofs(node, "fit_pose", pose);
+    model.fit_pose = std::move(pose);
   }
   return model;
 }
@@ -290,6 +301,24 @@ BodyModel atFrameRate(const BodyModel& model, double hz) {
   BodyModel scaled = model;
   for (Dof& dof : scaled.dofs) dof.max_speed *= model.frame_rate / hz;
   scaled.frame_rate = hz;
+  return scaled;
+}
+
+BodyModel scaledBodyModel(const BodyModel& model, double factor) {
+  if (!(factor > 0) || !std::isfinite(factor))
+    throw std::invalid_argument("body scale must be a positive factor, got " +
+                                std::to_string(factor));
+  BodyModel scaled = model;
+  for (Segment& segment : scaled.segments) {
+    segment.offset *= factor;
+    Shape& shape = segment.shape;
+    shape.length *= factor;
+    shape.radius_start *= factor;
+    shape.radius_end *= factor;
+    shape.center *= factor;
+    shape.radii *= factor;
+  }
+  for (BodyPoint& point : scaled.points) point.local *= factor;
   return scaled;
 }
 
@@ -342,6 +371,14 @@ std::string formatBodyModel(const BodyModel& model) {
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;
+  }
+  if (model.fit_pose) {
+    out << YAML::Key << "fit_pose" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    for (const auto& [d, value] : model.fit_pose->dofs) {
+      const double unit = model.dofs[d].type == DofType::kRotation ? 1.0 / kDegToRad : 1.0;
+      out << YAML::Key << model.dofs[d].name << YAML::Value << value * unit;
+    }
+    out << YAML::EndMap;
   }
   out << YAML::Key << "segments" << YAML::Value << YAML::BeginSeq;
   for (std::size_t s = 0; s < model.segments.size(); ++s) {
@@ -445,6 +482,9 @@ BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& f
   // A frozen DOF holds its value in every stance too.
   for (Stance& stance : out.stances)
     for (auto& [d, value] : stance.dofs) value = std::clamp(value, out.dofs[d].min, out.dofs[d].max);
+  if (out.fit_pose)
+    for (auto& [d, value] : out.fit_pose->dofs)
+      value = std::clamp(value, out.dofs[d].min, out.dofs[d].max);
   return out;
 }
 

@@ -3,6 +3,7 @@
 // Loaded once from YAML; everything that changes per pose lives in data objects (kinematics.h).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -82,6 +83,10 @@ class BodyModel {
   // tracker settings measured on people (TrackerSettings::forPeople) rather than the hand's.
   bool person = false;
   std::vector<Stance> stances;  // optional, besides the neutral pose
+  // Optional (`fit_pose` in the file, DOF values as a stance's): the pose a subject is asked to
+  // stand in while the body is fitted to it from the cameras (tracker/body_size.h); the human's
+  // is an A-pose, the arms 45 degrees out, so the cameras see their length.
+  std::optional<Stance> fit_pose;
   // The camera rate (Hz) the DOFs' max_speed values are per frame of: `frame_rate` in the file,
   // 25 (the paper's rate) when absent. atFrameRate rescales a model to another rate.
   double frame_rate = 25;
@@ -106,6 +111,13 @@ BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& f
 // model.frame_rate / hz, so a body tracked at 50 Hz may move half as far per frame as at 25 Hz.
 // Throws std::invalid_argument unless hz is positive and finite.
 BodyModel atFrameRate(const BodyModel& model, double hz);
+
+// A copy of `model` uniformly `factor` times as large: every offset (the root's standing height
+// included), shape and point. DOFs are unchanged, so a pose means the same angles and the same
+// root displacement on either, and both stand on the floor at the neutral pose. How a body is
+// fitted to a subject's height (tracker/body_size.h). Throws std::invalid_argument unless factor
+// is positive and finite.
+BodyModel scaledBodyModel(const BodyModel& model, double factor);
 
 // Parses a body model from YAML text. `source` names the file in error messages. Throws
 // std::runtime_error with "<source>:<line>: <field path>: <reason>" on any bad input.

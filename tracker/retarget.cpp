@@ -181,7 +181,15 @@ std::vector<BoneLength> subjectBoneLengths(const BodyModel& model, const BvhSkel
 
 BodyModel fitModelToBvh(const BodyModel& model, const BvhSkeleton& skeleton) {
   const AxisMap axes = bvhToModelAxes(model, skeleton);
-  const std::vector<Eigen::Vector3d> subject = subjectRestPoints(model, skeleton, axes.rotation);
+  return fitModelToRestPoints(model, subjectRestPoints(model, skeleton, axes.rotation));
+}
+
+BodyModel fitModelToRestPoints(const BodyModel& model,
+                               const std::vector<Eigen::Vector3d>& subject) {
+  if (subject.size() != model.points.size())
+    throw std::invalid_argument("fitting body model '" + model.name +
+                                "': " + std::to_string(subject.size()) + " rest points for its " +
+                                std::to_string(model.points.size()));
   auto point = [&](const char* name) { return requirePoint(model, name); };
   auto length = [&](const char* a, const char* b) {
     return (subject[point(b)] - subject[point(a)]).norm();

@@ -62,6 +62,10 @@ std::vector<BoneLength> subjectBoneLengths(const BodyModel& model, const BvhSkel
 // hip joints; the standing height is set so the fitted feet stand where the model's did. DOFs,
 // limits and speeds are unchanged.
 BodyModel fitModelToBvh(const BodyModel& model, const BvhSkeleton& skeleton);
+// The same fit to any subject's rest pose: `subject` holds, per model point, where the subject has
+// it standing as the model stands at its neutral pose (model axes, metres). Throws
+// std::invalid_argument unless there is one per model point.
+BodyModel fitModelToRestPoints(const BodyModel& model, const std::vector<Eigen::Vector3d>& subject);
 
 // The inverse-kinematics fit of all free DOFs to target point positions (world, metres).
 struct IkOptions {

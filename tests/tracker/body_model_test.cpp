@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "tracker/builtin_models.h"
+#include "tracker/kinematics.h"
 
 namespace mocap {
 namespace {
@@ -81,7 +82,8 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       {"length: 0.3, ", "", "segments[0] (upper).shape.length: missing"},
       {"type: cone", "type: cube", "unknown shape 'cube'"},
       {"min: -90, max: 90", "min: 90, max: -90", "(upper).dofs[0]: min is greater than max"},
-      {"name: arm", "name: arm\nkind: horse", "bad.yaml:3: kind: expected person or other, got 'horse'"},
+      {"name: arm", "name: arm\nkind: horse",
+       "bad.yaml:3: kind: expected person or other, got 'horse'"},
       {"name: arm", "name: arm\nfacing_twists: [shoulder, slide]",
        "bad.yaml:3: facing_twists[1]: 'slide' is not a rotation"},
       {"name: arm", "name: arm\nfacing_twists: [elbow]", "facing_twists[0]: unknown DOF 'elbow'"},
@@ -90,7 +92,11 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       // A misspelt optional key is named, not ignored.
       {"name: arm", "name: arm\nkindd: person",
        "bad.yaml:3: (top).kindd: unknown key (known: name, kind, frame_rate, gait_dofs, "
-       "facing_twists, feet, stances, segments)"},
+       "facing_twists, feet, stances, fit_pose, segments)"},
+      {"name: arm", "name: arm\nfit_pose: {shoulder: 100}",
+       "bad.yaml:3: fit_pose.shoulder: outside the DOF's limits"},
+      {"name: arm", "name: arm\nfit_pose: [shoulder]",
+       "bad.yaml:3: fit_pose: expected a map of DOF values"},
       {"name: arm", "name: arm\nstances: [{name: up, elbow: 10}]",
        "bad.yaml:3: stances[0].elbow: unknown DOF"},
       {"name: arm", "name: arm\nstances: [{name: up, shoulder: 100}]",
@@ -101,7 +107,8 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
       {"name: arm", "name: arm\nfeet: [paw]", "feet[0]: unknown segment 'paw'"},
       {"name: arm", "name: arm\nframe_rate: 0", "bad.yaml:3: frame_rate: must be positive, got 0"},
       {"name: arm", "name: arm\nframe_rate: fast", "frame_rate: expected a number, got 'fast'"},
-      {"offset: [0, 0, 1]", "ofset: [0, 0, 1]", "bad.yaml:5: segments[0] (upper).ofset: unknown key"},
+      {"offset: [0, 0, 1]", "ofset: [0, 0, 1]",
+       "bad.yaml:5: segments[0] (upper).ofset: unknown key"},
       {"radius_end", "radius_ed", "segments[0] (upper).shape.radius_ed: unknown key"},
   };
   for (const auto& c : cases) {
@@ -154,6 +161,10 @@ TEST(BodyModel, StancesSetTheirDofsInTheFilesUnitsAndTheRestNeutral) {
   ASSERT_EQ(human.stances.size(), 3u);
   EXPECT_EQ(human.stances[2].name, "crouch");
   EXPECT_NEAR(human.stancePose(human.stances[2])[human.dofIndex("l_knee_flex")], M_PI / 2, 1e-12);
+  // Its body is fitted to a subject standing with the arms out (an A-pose), which is no stance.
+  ASSERT_TRUE(human.fit_pose.has_value());
+  EXPECT_NEAR(human.stancePose(*human.fit_pose)[human.dofIndex("r_shoulder_abd")], M_PI / 4, 1e-12);
+  EXPECT_FALSE(m.fit_pose.has_value());
 }
 
 TEST(BodyModel, HumanModelHas31DofsAnd19JointsAndAGaitSubset) {
@@ -200,6 +211,44 @@ TEST(BodyModel, SpeedLimitsArePerFrameAtTheModelsFrameRate) {
   EXPECT_THROW(atFrameRate(arm, NAN), std::invalid_argument);
 }
 
+TEST(BodyModel, AScaledBodyIsTheSameBodyLargerStandingOnTheSameFloor) {
+  const BodyModel human = builtinHumanModel();
+  const BodyModel tall = scaledBodyModel(human, 1.1);
+  // Any pose: the same angles put every point 1.1 times as far from where the root stands, and the
+  // root's displacement is the same metres on both (a translation DOF is not a length of the body).
+  Eigen::VectorXd q = human.neutralPose();
+  for (std::size_t d = 0; d < human.dofs.size(); ++d)
+    q[static_cast<long>(d)] = human.dofs[d].min + 0.37 * (human.dofs[d].max - human.dofs[d].min);
+  const Eigen::Vector3d moved(0.4, -0.2, 0.1);
+  q[human.dofIndex("root_tx")] = moved.x();
+  q[human.dofIndex("root_ty")] = moved.y();
+  q[human.dofIndex("root_tz")] = moved.z();
+  KinematicsData kin(human), tall_kin(tall);
+  forwardKinematics(human, kin, q);
+  forwardKinematics(tall, tall_kin, q);
+  const auto points = pointPositions(human, kin), tall_points = pointPositions(tall, tall_kin);
+  ASSERT_EQ(points.size(), tall_points.size());
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    SCOPED_TRACE(human.points[p].name);
+    EXPECT_LT(((tall_points[p] - moved) - 1.1 * (points[p] - moved)).norm(), 1e-12);
+  }
+  // Standing, the feet stay on the floor: the lowest point is 1.1 times as high (both near zero).
+  forwardKinematics(human, kin, human.neutralPose());
+  forwardKinematics(tall, tall_kin, tall.neutralPose());
+  const auto lowest = [](const std::vector<Eigen::Vector3d>& ps) {
+    double z = INFINITY;
+    for (const Eigen::Vector3d& p : ps) z = std::min(z, p.z());
+    return z;
+  };
+  EXPECT_NEAR(lowest(pointPositions(tall, tall_kin)), 1.1 * lowest(pointPositions(human, kin)),
+              1e-12);
+  EXPECT_NEAR(tall.segments[1].shape.radii.x(), 1.1 * human.segments[1].shape.radii.x(), 1e-15);
+  EXPECT_EQ(tall.dofs[0].max, human.dofs[0].max);
+  EXPECT_EQ(tall.dofs[0].max_speed, human.dofs[0].max_speed);
+  EXPECT_THROW(scaledBodyModel(human, 0), std::invalid_argument);
+  EXPECT_THROW(scaledBodyModel(human, NAN), std::invalid_argument);
+}
+
 void expectSameModel(const BodyModel& a, const BodyModel& b) {
   constexpr double kTolerance = 1e-12;  // degrees and back may move the last bit of an angle
   EXPECT_EQ(a.name, b.name);
@@ -212,6 +261,10 @@ void expectSameModel(const BodyModel& a, const BodyModel& b) {
   for (std::size_t k = 0; k < a.stances.size(); ++k) {
     EXPECT_EQ(a.stances[k].name, b.stances[k].name);
     EXPECT_LT((a.stancePose(a.stances[k]) - b.stancePose(b.stances[k])).norm(), kTolerance);
+  }
+  ASSERT_EQ(a.fit_pose.has_value(), b.fit_pose.has_value());
+  if (a.fit_pose) {
+    EXPECT_LT((a.stancePose(*a.fit_pose) - b.stancePose(*b.fit_pose)).norm(), kTolerance);
   }
   ASSERT_EQ(a.segments.size(), b.segments.size());
   for (std::size_t s = 0; s < a.segments.size(); ++s) {

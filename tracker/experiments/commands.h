@@ -20,6 +20,7 @@ inline constexpr const char* kHumanUsage =
     "       [--keep K] [--samples S] [--layers M] [--lookahead none|root|subtree|body]\n"
     "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
     "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
+    "       [--subject-scale K] [--tracked-body truth|default|fit]\n"
     "       [--lost-below FIT [--lost-after N]] [--dropout-at F --dropout-frames N]\n"
     "       [--refine SHARE] [--refine-max N] [--refine-step SPEEDS]\n"
     "       [--refine-hold 0|1] [--refine-plant 0|1] [--refine-unexplained 0|1]\n"

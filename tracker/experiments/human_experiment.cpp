@@ -170,37 +170,90 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   const BodyModel base =
       config.model_path.empty() ? builtinHumanModel() : loadBodyModel(config.model_path);
   const Bvh bvh = loadBvh(config.motion_path);
-  const BodyModel fitted = fitModelToBvh(base, bvh.skeleton);
+  // The subject: the BVH's own proportions, optionally all of it `subject_scale` times as large
+  // (a smaller or taller person moving the same way, so its root moves that much farther too).
+  const BodyModel bvh_body = fitModelToBvh(base, bvh.skeleton);
+  const BodyModel fitted = scaledBodyModel(bvh_body, config.subject_scale);
   const RetargetResult retarget =
-      retargetBvh(fitted, bvh.skeleton, bvh.motion, 25, config.start_frame + config.frames);
+      retargetBvh(bvh_body, bvh.skeleton, bvh.motion, 25, config.start_frame + config.frames);
   Motion truth = retarget.motion;
   if (config.start_frame >= static_cast<int>(truth.size()))
     throw std::invalid_argument("--start-frame: the motion has only " +
                                 std::to_string(truth.size()) + " frames at 25 Hz");
   truth.erase(truth.begin(), truth.begin() + config.start_frame);
+  for (Eigen::VectorXd& q : truth)
+    for (int d : fitted.segments[0].dofs)
+      if (fitted.dofs[d].type == DofType::kTranslation) q[d] *= config.subject_scale;
   const int frames = std::min<int>(config.frames, static_cast<int>(truth.size()));
 
   // Gait mode: the 17 gait DOFs move, the rest stay neutral in the truth and in the tracker.
   BodyModel model = fitted;
+  BodyModel unfitted = base;
   if (config.dofs == 17) {
     if (fitted.gait_dofs.size() != 17)
       throw std::invalid_argument("the body model defines " +
                                   std::to_string(fitted.gait_dofs.size()) + " gait DOFs, not 17");
     const Eigen::VectorXd neutral = fitted.neutralPose();
     model = freezeAllBut(fitted, fitted.gait_dofs, neutral);
+    unfitted = freezeAllBut(base, base.gait_dofs, neutral);
     for (Eigen::VectorXd& q : truth)
       for (std::size_t d = 0; d < model.dofs.size(); ++d)
         if (!model.dofs[d].isFree()) q[static_cast<long>(d)] = neutral[static_cast<long>(d)];
   }
   truth.resize(frames);
   const Rig rig = labRig(config.cameras, model, truth);
+  SceneRenderer renderer(model, rig);
 
   FilterOptions options = config.filter;
   options.evaluations_per_frame = config.evaluations;
   options.seed = config.seed;
   WorkerPool pool(config.threads);
   // The model at a rate 1/k times its own has k times its speed limits per frame.
-  const BodyModel tracked = atFrameRate(model, model.frame_rate / config.speed_scale);
+  const auto atSpeedScale = [&](const BodyModel& body) {
+    return atFrameRate(body, body.frame_rate / config.speed_scale);
+  };
+  // The body the tracker knows: the subject's own (every other table of docs/human.md), the
+  // model file as given, or that file scaled to the size fitted from the first seconds.
+  std::optional<BodyFit> size_fit;
+  double size_fit_seconds = 0;
+  BodyModel tracked_body = model;
+  if (config.tracked_body == "default") {
+    tracked_body = unfitted;
+  } else if (config.tracked_body == "fit") {
+    // As a user would: the subject first stands in the model's fit pose where the motion starts,
+    // turning from its first heading through a quarter turn over kFitFrames frames, and the model
+    // file's body is fitted to it.
+    if (!unfitted.fit_pose)
+      throw std::invalid_argument("--tracked-body fit: the body model has no fit_pose");
+    const int yaw = unfitted.dofIndex("root_yaw");
+    Eigen::VectorXd standing = unfitted.stancePose(*unfitted.fit_pose);
+    for (int d : unfitted.segments[0].dofs)
+      if (unfitted.dofs[d].type == DofType::kTranslation || d == yaw) standing[d] = truth[0][d];
+    std::vector<std::vector<SilhouetteMask>> fit_frames(kFitFrames);
+    std::vector<cv::Mat> fit_images;
+    for (int f = 0; f < kFitFrames; ++f) {
+      Eigen::VectorXd turned = standing;
+      turned[yaw] += M_PI / 2 * f / std::max(1, kFitFrames - 1);
+      renderer.renderSilhouettes(turned, fit_images);
+      for (std::size_t c = 0; c < rig.size(); ++c) {
+        // Frames before the motion's own (negative), so their defects differ from its frames'.
+        if (config.noise == "realistic")
+          corruptSilhouette(fit_images[c], config.seed, -1 - f, static_cast<int>(c));
+        fit_frames[f].emplace_back(fit_images[c]);
+      }
+    }
+    const auto start = std::chrono::steady_clock::now();
+    std::string why_not;
+    size_fit = fitBodyInPose(unfitted, rig, fit_frames, options.likelihood, {}, &why_not);
+    size_fit_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!size_fit) throw std::runtime_error("--tracked-body fit: no subject found: " + why_not);
+    tracked_body = proportionedBodyModel(unfitted, size_fit->proportions);
+  } else if (config.tracked_body != "truth") {
+    throw std::invalid_argument("--tracked-body: expected truth, default or fit, got '" +
+                                config.tracked_body + "'");
+  }
+  const BodyModel tracked = atSpeedScale(tracked_body);
   std::unique_ptr<PoseFilter> filter;
   AcquiringFilter* acquiring = nullptr;
   const auto makeTrackerFilter = [&] {
@@ -223,9 +276,14 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (config.start_offset != "acquire")
     filter->reset(misplaced(model, truth[0], config.start_offset));
 
-  SceneRenderer renderer(model, rig);
+  SceneRenderer tracked_renderer(tracked_body, rig);  // draws the estimate in the overlays
   const int missed_limb = model.segmentIndex("l_forearm");
-  KinematicsData kin(model);
+  KinematicsData kin(model), tracked_kin(tracked_body);
+  Eigen::VectorXd floor_pose = truth[0];
+  double body_floor_mm = 0;  // summed over the frames
+  IkOptions floor_ik;
+  floor_ik.prior_weight = 0;
+  floor_ik.respect_speed_limits = false;
   std::vector<cv::Mat> images;
   std::vector<SilhouetteMask> masks(rig.size());
   std::vector<double> per_joint(model.points.size(), 0.0);
@@ -250,7 +308,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   // Per-frame trace: tells a search failure (the estimate scores below the truth) from an
   // ambiguity of the silhouettes (it scores as well or better while far off).
   std::ofstream trace;
-  std::unique_ptr<FullBodyEvaluator> scorer;
+  std::unique_ptr<FullBodyEvaluator> scorer, estimate_scorer;
   if (!config.trace_path.empty()) {
     trace.open(config.trace_path);
     if (!trace) throw std::runtime_error("--trace: cannot write '" + config.trace_path + "'");
@@ -259,6 +317,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     trace << ",legs_swapped_mm,silhouette_pixels,estimate_fit,found\n";
     scorer =
         std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
+    estimate_scorer = std::make_unique<FullBodyEvaluator>(tracked_body, rig,
+                                                          options.likelihood.points_per_circle, 1);
   }
   // Heading: the direction of the hip axis (right hip to left hip) on the ground plane.
   const int l_hip = model.pointIndex("l_hip"), r_hip = model.pointIndex("r_hip");
@@ -296,8 +356,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     frames_without_pose += !estimate.found;
     forwardKinematics(model, kin, truth[f]);
     const auto true_points = pointPositions(model, kin);
-    forwardKinematics(model, kin, estimate.q);
-    const auto tracked_points = pointPositions(model, kin);
+    forwardKinematics(tracked_body, tracked_kin, estimate.q);
+    const auto tracked_points = pointPositions(tracked_body, tracked_kin);
     double sum = 0;
     for (std::size_t p = 0; p < true_points.size(); ++p) {
       const double e = 1000 * (true_points[p] - tracked_points[p]).norm();
@@ -305,13 +365,26 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       sum += e;
     }
     frame_error.push_back(sum / true_points.size());
+    if (config.tracked_body != "truth") {
+      // The tracked body's floor: the pose of it nearest the true joints (warm-started, pulled
+      // toward nothing), which no tracker can beat on this body.
+      const IkResult nearest =
+          fitPoseToPoints(tracked_body, true_points, floor_pose, floor_pose, floor_ik);
+      floor_pose = nearest.q;
+      forwardKinematics(tracked_body, tracked_kin, floor_pose);
+      const auto floor_points = pointPositions(tracked_body, tracked_kin);
+      double floor_sum = 0;
+      for (std::size_t p = 0; p < true_points.size(); ++p)
+        floor_sum += 1000 * (true_points[p] - floor_points[p]).norm();
+      body_floor_mm += floor_sum / true_points.size();
+    }
     for (std::size_t l = 0; l < limbs.size(); ++l) {
       double limb_sum = 0;
       for (int p : limbs[l].points) limb_sum += 1000 * (true_points[p] - tracked_points[p]).norm();
       limb_error[l].push_back(limb_sum / limbs[l].points.size());
     }
     if (!config.overlay_dir.empty() && f % 10 == 0)
-      writeOverlays(config.overlay_dir, f, masks, renderer, estimate.q);
+      writeOverlays(config.overlay_dir, f, masks, tracked_renderer, estimate.q);
     const double heading_error =
         l_hip >= 0 && r_hip >= 0
             ? std::remainder(heading(tracked_points) - heading(true_points), 2 * M_PI) * 180 / M_PI
@@ -328,7 +401,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     if (scorer) {
       const double truth_score =
           logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0));
-      const PixelCounts estimate_counts = scorer->evaluate(estimate.q, masks, 0);
+      const PixelCounts estimate_counts = estimate_scorer->evaluate(estimate.q, masks, 0);
       const double estimate_score = logLikelihood(options.likelihood, estimate_counts);
       lost_truth_ahead += lost && truth_score > estimate_score + 20;
       trace << f << ',' << frame_error.back() << ',' << truth_score << ',' << estimate_score << ','
@@ -411,6 +484,20 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (config.reset_every > 0) out["reset_every"] = config.reset_every;
   if (config.start_frame > 0) out["start_frame"] = config.start_frame;
   if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
+  if (config.subject_scale != 1) out["subject_scale"] = config.subject_scale;
+  if (config.tracked_body != "truth") {
+    out["tracked_body"] = config.tracked_body;
+    out["body_floor_mm"] = body_floor_mm / scored;
+  }
+  if (size_fit) {
+    out["body_scale"] = size_fit->scale;
+    nlohmann::json proportions = nlohmann::json::object();
+    for (int k = 0; k < BodyProportions::kCount; ++k)
+      proportions[BodyProportions::name(k)] = size_fit->proportions[k];
+    out["body_proportions"] = proportions;
+    out["body_fit_evaluations"] = size_fit->evaluations;
+    out["body_fit_seconds"] = size_fit_seconds;
+  }
   if (config.skip_rate > 0) {
     out["skip_rate"] = config.skip_rate;
     out["tracked_frames"] = scored;
@@ -458,6 +545,8 @@ int runHumanCommand(int argc, char** argv) {
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
   config.reset_every = static_cast<int>(args.integer("reset-every", 0, 0, 1'000'000));
   config.speed_scale = args.real("speed-scale", 1.0, 0.01, 100.0);
+  config.subject_scale = args.real("subject-scale", 1.0, 0.5, 2.0);
+  config.tracked_body = args.text("tracked-body", config.tracked_body);
   config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
   if (args.has("lost-below")) config.lost_below = args.real("lost-below", 0.0, 0.0, 0.99);
   config.lost_after = static_cast<int>(args.integer("lost-after", config.lost_after, 1, 1'000'000));

@@ -13,6 +13,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "tracker/body_model.h"
+#include "tracker/body_size.h"
 #include "tracker/builtin_models.h"
 #include "tracker/camera.h"
 #include "tracker/filter.h"
@@ -41,6 +42,9 @@ FilterOptions humanFilterDefaults();
 std::string lostFrameCause(double left_leg, double right_leg, double worst_arm,
                            double heading_error_deg, double legs_swapped);
 
+// Frames of the subject standing in the fit pose that --tracked-body fit fits the body to.
+inline constexpr int kFitFrames = 5;
+
 struct HumanExperimentConfig {
   std::string motion_path;          // BVH (CMU skeleton)
   std::string method = "factored";
@@ -60,6 +64,13 @@ struct HumanExperimentConfig {
   // The tracker's speed limits are this times the model's, by which the truth is bounded: below 1,
   // a subject who moves faster than the tracker allows; above 1, a looser motion prior.
   double speed_scale = 1;
+  // The subject is the motion's own body times this (root displacements too): a smaller or taller
+  // person moving the same way.
+  double subject_scale = 1;
+  // The body the tracker is given: "truth" (the subject's own), "default" (the model file, the
+  // shipped human a 1.75 m adult's), or "fit" (the model file fitted by fitBodyInPose to
+  // kFitFrames frames of the subject standing in its fit_pose before the motion).
+  std::string tracked_body = "truth";
   // A live tracker that cannot keep up: each frame after the first is skipped (not tracked, not
   // scored) with this probability, from its own seeded stream, as mocapd drops the frame sets
   // that arrive while a step runs. The tracker's motion model still assumes one frame per step.

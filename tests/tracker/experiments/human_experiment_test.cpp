@@ -1,7 +1,7 @@
 // The human experiment's scoring: per-limb errors point at the limb that is wrong, lost frames are
 // counted by what went wrong, --reset-every restarts from the truth, --speed-scale slows only the
-// tracker, --skip-rate leaves frames untracked and unscored, and bad flags are refused with their
-// names.
+// tracker, --skip-rate leaves frames untracked and unscored, --tracked-body gives the tracker
+// another body than the subject's, and bad flags are refused with their names.
 #include "tracker/experiments/human_experiment.h"
 
 #include <unistd.h>
@@ -194,6 +194,38 @@ TEST(HumanExperiment, SkippedFramesAreNeitherTrackedNorScored) {
   EXPECT_EQ(skipping["frames"], 20);
   // Per tracked frame: a step spends the same budget whether or not frames were skipped before it.
   EXPECT_EQ(skipping["evals_per_frame"], every["evals_per_frame"]);
+}
+
+// The shipped body is far off the walk's (smaller) subject even at the true angles; the body
+// fitted to the subject standing in the fit pose first is much nearer, with its build reported.
+TEST(HumanExperiment, TheTrackedBodyIsTheSubjectsTheFilesOrOneFittedToTheSubject) {
+  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  HumanExperimentConfig config = walk(10);
+  const nlohmann::json own = runHumanExperiment(config);
+  config.tracked_body = "default";
+  const nlohmann::json file = runHumanExperiment(config);
+  config.tracked_body = "fit";
+  const nlohmann::json fitted = runHumanExperiment(config);
+  EXPECT_FALSE(own.contains("tracked_body"));
+  EXPECT_EQ(file["tracked_body"], "default");
+  EXPECT_FALSE(file.contains("body_proportions"));
+  // Nearest poses of each body to the true joints: the file's is far, the fitted one near.
+  EXPECT_GT(file["body_floor_mm"].get<double>(), 40.0) << file.dump();
+  EXPECT_LT(fitted["body_floor_mm"].get<double>(), 0.5 * file["body_floor_mm"].get<double>());
+  // Tracked over 10 frames: the file's body about 110 mm off, the fitted one under half of that.
+  EXPECT_LT(fitted["mpjpe_mm"].get<double>(), 0.5 * file["mpjpe_mm"].get<double>());
+  EXPECT_LT(own["mpjpe_mm"].get<double>(), fitted["mpjpe_mm"].get<double>());
+  const nlohmann::json& build = fitted["body_proportions"];
+  ASSERT_EQ(build.size(), 6u) << fitted.dump();
+  EXPECT_LT(build["legs"].get<double>(), 1.0);  // the subject is smaller than the file's 1.75 m
+  EXPECT_LT(build["arms"].get<double>(), 0.85);
+  config.tracked_body = "mine";
+  try {
+    runHumanExperiment(config);
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("--tracked-body"));
+  }
 }
 
 }  // namespace
