@@ -316,10 +316,11 @@ class ConfigParser {
   ServerConfig parse(const YAML::Node& root) const {
     ServerConfig config;
     config.source = source_;
-    onlyKeys(root, "",
-             {"cameras", "calibration", "body_model", "tracker", "sync", "listen",
-              "recording_directory", "background_directory", "silhouettes", "before_background",
-              "tls", "auth", "log_level", "scene_motion", "scene_empty_seconds"});
+    onlyKeys(
+        root, "",
+        {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "recording_directory",
+         "background_directory", "silhouettes", "before_background", "tls", "auth", "log_level",
+         "scene_motion", "scene_empty_seconds", "scene_fit_pose_seconds", "track_subject_body"});
 
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
@@ -367,6 +368,23 @@ class ConfigParser {
                "only the fake scene can be empty (cameras[" + std::to_string(camera.index) +
                    "] is " + camera.driver + ")");
     }
+
+    // Only a played motion has a subject whose body was fitted, and a first pose to stand in.
+    const auto needsMotion = [&](const char* key) {
+      const YAML::Node node = root[key];
+      if (node && config.scene_motion.empty())
+        fail(node, key, "needs a scene_motion (the fake scene playing a recorded subject)");
+      return node;
+    };
+    if (const YAML::Node seconds = needsMotion("scene_fit_pose_seconds")) {
+      config.scene_fit_pose_seconds = number(seconds, "scene_fit_pose_seconds", 0, 3600);
+      if (config.body_model_file && !config.body_model_file->fit_pose)
+        fail(seconds, "scene_fit_pose_seconds",
+             "the body model '" + config.body_model_file->name + "' (" + config.body_model +
+                 ") has no fit_pose to stand in");
+    }
+    if (const YAML::Node track = needsMotion("track_subject_body"))
+      config.track_subject_body = boolean(track, "track_subject_body");
 
     if (config.body_model == "builtin:human" || !config.scene_motion.empty() ||
         (config.body_model_file && config.body_model_file->person))

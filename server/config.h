@@ -97,11 +97,18 @@ struct ServerConfig {
   // not parsed from YAML): the server tracks this one rather than reading the file again.
   std::shared_ptr<const BodyModel> body_model_file;
   // Fake scene only: a BVH file (CMU's skeleton) the scene plays, retargeted at the cameras' rate
-  // onto the body model fitted to the recorded subject; the tracker tracks that fitted body.
+  // onto the body model fitted to the recorded subject; the tracker tracks that fitted body unless
+  // track_subject_body is false.
   std::string scene_motion;
   // The fake scene: seconds the cameras see the empty room before the subject walks in (time to
   // capture the background, as before a real session).
   double scene_empty_seconds = 0;
+  // With a scene_motion: seconds the subject then stands still in the body model's fit_pose, where
+  // and facing the way the motion starts, before it moves (time to fit the body: FitBody).
+  double scene_fit_pose_seconds = 0;
+  // With a scene_motion: false tracks the configured body_model as given (as with a real person,
+  // whose body nobody fitted beforehand) while the scene still shows the recorded subject's body.
+  bool track_subject_body = true;
   TrackerSettings tracker;
   // The `tracker:` keys the file set itself, as written (a replay applies them over the session's).
   std::vector<std::pair<std::string, std::string>> tracker_keys;

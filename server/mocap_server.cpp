@@ -48,6 +48,8 @@ FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel*
   options.scene.motion = std::move(motion);
   options.scene.empty_frames =
       static_cast<uint64_t>(std::llround(config.scene_empty_seconds * first.fps));
+  options.scene.fit_pose_frames =
+      static_cast<uint64_t>(std::llround(config.scene_fit_pose_seconds * first.fps));
   return options;
 }
 
@@ -78,17 +80,24 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
     return Status::Error(e.what());
   }
   std::shared_ptr<const Motion> scene_motion;
+  // The scene's subject, when the tracker tracks another body (track_subject_body: false).
+  std::shared_ptr<const BodyModel> subject_body;
   if (!config.scene_motion.empty()) {
-    // The body fitted to the recorded subject, so the scene shows and the tracker tracks that
-    // person's proportions (docs/human.md).
+    // The body fitted to the recorded subject, so the scene shows that person's proportions
+    // (docs/human.md); the tracker tracks it too, unless told to track the configured body as it
+    // would a real person, whose body nobody fitted beforehand.
     try {
       const Bvh bvh = loadBvh(config.scene_motion);
       const double fps = config.cameras.front().fps;
-      auto fitted = std::make_unique<BodyModel>(fitModelToBvh(
-          server->model_ ? *server->model_ : atFrameRate(builtinHumanModel(), fps), bvh.skeleton));
+      if (!server->model_)
+        server->model_ = std::make_unique<BodyModel>(atFrameRate(builtinHumanModel(), fps));
+      auto fitted = std::make_unique<BodyModel>(fitModelToBvh(*server->model_, bvh.skeleton));
       scene_motion = std::make_shared<const Motion>(
           retargetBvh(*fitted, bvh.skeleton, bvh.motion, fps).motion);
-      server->model_ = std::move(fitted);
+      if (config.track_subject_body)
+        server->model_ = std::move(fitted);
+      else
+        subject_body = std::move(fitted);
     } catch (const std::exception& e) {
       return Status::Error(config.source + ": scene_motion: " + e.what());
     }
@@ -154,8 +163,9 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
       return Status::Error(config.source +
                            ": cameras: the fake scene cannot be mixed with real cameras");
     if (any_fake) {
-      FakeDriver driver(
-          fakeDriverOptions(config, server->model_.get(), server->rig_.get(), scene_motion));
+      FakeDriver driver(fakeDriverOptions(config,
+                                          subject_body ? subject_body.get() : server->model_.get(),
+                                          server->rig_.get(), scene_motion));
       Expected<std::shared_ptr<FakeScene>> scene = driver.scene();
       if (!scene.ok()) return Status::Error("fake scene: " + scene.error());
       std::shared_ptr<FakeScene> shared = scene.value();
@@ -191,6 +201,7 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
         }
       }
       inputs.reference_pose = [shared](uint64_t sequence) { return shared->truePose(sequence); };
+      inputs.reference_model = subject_body;
       // The subject's first pose in view, as a real session would give it by a start-up pose.
       inputs.initial_pose = shared->truePose(shared->options().empty_frames);
     } else {
@@ -222,6 +233,7 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
   // scene's first true pose, or the neutral pose).
   if (server->config_.tracker.dofs == "gait") {
     BodyModel& model = *server->model_;
+    inputs.fit_model = std::make_shared<const BodyModel>(model);  // FitBody fits every DOF
     if (model.gait_dofs.empty())
       return Status::Error(config.source + ": tracker.dofs: gait, but the body model '" +
                            model.name + "' names no gait_dofs");

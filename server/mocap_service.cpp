@@ -67,6 +67,30 @@ grpc::Status backgroundStatus(const BackgroundResult& result) {
   return grpc::Status(grpc::StatusCode::UNKNOWN, result.message);
 }
 
+// 0 in a request: enough for the fit (docs/human.md fits from 5), about 2 s of it on one core.
+constexpr int kDefaultFitFrameSets = 5;
+// Each set adds about 0.4 s of fitting and two 120 KB silhouettes per camera held meanwhile; a
+// stopping daemon waits for a fit under way.
+constexpr int kMaxFitFrameSets = 250;
+
+grpc::Status bodyFitStatus(const FitBodyResult& result) {
+  switch (result.error) {
+    case BodyFitError::kNone:
+      return grpc::Status::OK;
+    case BodyFitError::kCannotFit:
+    case BodyFitError::kBusy:
+    case BodyFitError::kNoSubject:
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, result.message);
+    case BodyFitError::kStalled:
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, result.message);
+    case BodyFitError::kStopped:
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE, result.message);
+    case BodyFitError::kFailed:
+      return grpc::Status(grpc::StatusCode::INTERNAL, result.message);
+  }
+  return grpc::Status(grpc::StatusCode::UNKNOWN, result.message);
+}
+
 }  // namespace
 
 MocapServiceImpl::MocapServiceImpl(const ServerConfig& config, const BodyModel& model,
@@ -235,6 +259,33 @@ grpc::ServerUnaryReactor* MocapServiceImpl::Reacquire(grpc::CallbackServerContex
   }
   logInfo() << "reacquisition requested by " << context->peer();
   return finish(context, grpc::Status::OK);
+}
+
+grpc::ServerUnaryReactor* MocapServiceImpl::FitBody(grpc::CallbackServerContext* context,
+                                                    const v1::FitBodyRequest* request,
+                                                    v1::FitBodyResponse* response) {
+  if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
+  if (request->frame_sets() < 0 || request->frame_sets() > kMaxFitFrameSets) {
+    return finish(
+        context,
+        grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                     "frame_sets: from 1 to " + std::to_string(kMaxFitFrameSets) +
+                         ", or 0 for the default (" + std::to_string(kDefaultFitFrameSets) +
+                         "); got " + std::to_string(request->frame_sets())));
+  }
+  const int frame_sets = request->frame_sets() == 0 ? kDefaultFitFrameSets : request->frame_sets();
+  logInfo() << "body fit from " << frame_sets << " frame sets requested by " << context->peer();
+  // Finished from the pipeline's threads: the fit takes seconds, which must not hold a gRPC
+  // callback thread.
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  pipeline_.fitBody(frame_sets, [reactor, response](const FitBodyResult& result) {
+    if (result.error == BodyFitError::kNone)
+      bodyFitToProto(result, *response);
+    else
+      logWarning() << "body fit failed: " << result.message;
+    reactor->Finish(bodyFitStatus(result));
+  });
+  return reactor;
 }
 
 }  // namespace mocap

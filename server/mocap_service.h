@@ -1,6 +1,7 @@
 // The gRPC MocapService on the callback API. StreamPoses gets one ServerWriteReactor per
-// subscriber (see pose_stream.cpp); CaptureBackground answers when the mask thread is done; every
-// other call answers at once from the pipeline's state.
+// subscriber (see pose_stream.cpp); CaptureBackground answers when the mask thread is done,
+// FitBody when the pipeline's fit thread is; every other call answers at once from the pipeline's
+// state.
 #pragma once
 
 #include <string>
@@ -43,6 +44,9 @@ class MocapServiceImpl final : public v1::MocapService::CallbackService {
   grpc::ServerUnaryReactor* Reacquire(grpc::CallbackServerContext* context,
                                       const v1::ReacquireRequest* request,
                                       v1::ReacquireResponse* response) override;
+  grpc::ServerUnaryReactor* FitBody(grpc::CallbackServerContext* context,
+                                    const v1::FitBodyRequest* request,
+                                    v1::FitBodyResponse* response) override;
 
  private:
   // OK if no token is configured or the call carries "authorization: Bearer <token>".

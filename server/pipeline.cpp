@@ -23,6 +23,11 @@ constexpr auto kPollInterval = std::chrono::milliseconds(100);
 // A background capture gives up when no camera contributed a frame for this long: a stalled camera
 // must not hold the RPC forever.
 constexpr int64_t kCaptureStallNs = 3'000'000'000;
+// A body fit gives up the same way when no frame set with every camera's silhouettes comes.
+constexpr int64_t kFitStallNs = kCaptureStallNs;
+// A body fit takes a frame set this often: 5 sets span 2 s, in which a subject asked to turn in
+// the fit pose turns by some tens of degrees.
+constexpr double kFitSetIntervalSeconds = 0.5;
 // A captured background with more of its image unsteady than this is reported (unsteadyShare), and
 // likewise with more of it changed from the background it replaces (changedShare).
 // Fixed before measuring; then, in the fake scene's two 780x580 views, 25 frames: the empty room
@@ -44,6 +49,13 @@ std::string fileNamePart(const std::string& text) {
   return name;
 }
 
+FitBodyResult fitFailure(BodyFitError error, std::string message) {
+  FitBodyResult result;
+  result.error = error;
+  result.message = std::move(message);
+  return result;
+}
+
 }  // namespace
 
 Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig& rig,
@@ -55,14 +67,20 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
       replay_(std::move(inputs.replay)),
       ground_truth_(std::move(inputs.ground_truth)),
       reference_pose_(std::move(inputs.reference_pose)),
+      reference_model_(std::move(inputs.reference_model)),
+      fit_model_(std::move(inputs.fit_model)),
       publisher_(publisher),
       masks_(config.replay() ? Handoff<MaskSet>::Mode::kLossless
                              : Handoff<MaskSet>::Mode::kLatestWins),
       poses_(config.replay() ? Handoff<std::shared_ptr<Pose>>::Mode::kLossless
                              : Handoff<std::shared_ptr<Pose>>::Mode::kLatestWins),
       kinematics_(model),
-      reference_kinematics_(model) {
+      reference_kinematics_(reference_model_ ? *reference_model_ : model) {
   if (cameras_.empty()) throw std::invalid_argument("no cameras");
+  if (reference_model_ && reference_model_->dofs.size() != model_.dofs.size())
+    throw std::invalid_argument("the reference body has " +
+                                std::to_string(reference_model_->dofs.size()) +
+                                " DOFs, the tracked one " + std::to_string(model_.dofs.size()));
   if (rig_.size() != cameras_.size()) {
     throw std::invalid_argument("the calibration has " + std::to_string(rig_.size()) +
                                 " cameras but " + std::to_string(cameras_.size()) +
@@ -159,7 +177,9 @@ Pipeline::ReacquireError Pipeline::reacquire() {
 
 Pipeline::~Pipeline() {
   stop();
-  if (save_thread_.joinable()) save_thread_.join();  // stop() returns early if never started
+  // stop() returns early if never started
+  if (save_thread_.joinable()) save_thread_.join();
+  if (fit_thread_.joinable()) fit_thread_.join();
 }
 
 void Pipeline::setPoseObserver(std::function<void(const Pose&)> observer) {
@@ -304,6 +324,10 @@ void Pipeline::stop() {
   if (publisher_thread_.joinable()) publisher_thread_.join();
   if (save_thread_.joinable()) save_thread_.join();
   stopRecording();
+  // The mask thread, which starts fits, has ended: a fit under way is the last; it stops at its
+  // next frame set's search (well under a second).
+  stop_fit_ = true;
+  if (fit_thread_.joinable()) fit_thread_.join();
 }
 
 void Pipeline::replayLoop() {
@@ -352,6 +376,116 @@ void Pipeline::captureBackground(int frames, std::function<void(const Background
   }
   capture_busy_ = true;
   capture_request_ = std::move(capture);
+}
+
+void Pipeline::fitBody(int frame_sets, std::function<void(const FitBodyResult&)> done) {
+  const BodyModel& model = fitModel();
+  if (!model.fit_pose) {
+    done(fitFailure(BodyFitError::kCannotFit,
+                    "the body model '" + model.name +
+                        "' has no fit_pose (the pose a subject stands in while the body is "
+                        "fitted)"));
+    return;
+  }
+  if (!canAcquire(model)) {
+    done(fitFailure(BodyFitError::kCannotFit, whyCannotAcquire(model)));
+    return;
+  }
+  auto collection = std::make_unique<BodyFitCollection>();
+  collection->frame_sets = std::max(frame_sets, 1);
+  collection->every = std::max(
+      1, static_cast<int>(std::lround(kFitSetIntervalSeconds * cameras_.front().config.fps)));
+  collection->done = std::move(done);
+  collection->last_progress_ns = monotonicNowNs();
+  std::unique_lock lock(capture_mutex_);
+  if (!accepting_captures_) {
+    lock.unlock();
+    collection->done(fitFailure(BodyFitError::kStopped, "the pipeline is not running"));
+    return;
+  }
+  if (fit_busy_) {
+    lock.unlock();
+    collection->done(
+        fitFailure(BodyFitError::kBusy, "a body fit is already under way; wait for its answer"));
+    return;
+  }
+  fit_busy_ = true;
+  fit_request_ = std::move(collection);
+}
+
+bool Pipeline::collectForFit(BodyFitCollection& collection,
+                             const std::vector<SilhouetteMask>* masks) {
+  const int64_t now = monotonicNowNs();
+  if (masks) {
+    // Sets spaced out, so a subject turning in the fit pose is seen from several sides.
+    if (collection.seen++ % collection.every == 0) collection.frames.push_back(*masks);
+    collection.last_progress_ns = now;
+  }
+  if (static_cast<int>(collection.frames.size()) >= collection.frame_sets) {
+    // The fit before this one ended its request before this could be made: it is finishing.
+    if (fit_thread_.joinable()) fit_thread_.join();
+    fit_thread_ = std::thread(
+        [this, collected = std::move(collection)]() mutable { runBodyFit(std::move(collected)); });
+    return true;
+  }
+  if (now - collection.last_progress_ns < kFitStallNs) return false;
+  endBodyFit(collection.done,
+             fitFailure(BodyFitError::kStalled,
+                        "no frame set with every camera's silhouettes for " +
+                            std::to_string(kFitStallNs / 1'000'000'000) +
+                            " s (a stalled camera, or one still waiting for a background); " +
+                            "frame sets collected: " + std::to_string(collection.frames.size()) +
+                            " of " + std::to_string(collection.frame_sets)));
+  return true;
+}
+
+void Pipeline::runBodyFit(BodyFitCollection collection) {
+  FitBodyResult result;
+  result.frame_sets_used = static_cast<int>(collection.frames.size());
+  const int64_t start = monotonicNowNs();
+  try {
+    const BodyModel& model = fitModel();
+    std::string why_not;
+    BodyFitOptions options;
+    options.should_stop = [this] { return stop_fit_.load(); };
+    const std::optional<BodyFit> fit =
+        fitBodyInPose(model, rig_, collection.frames, config_.tracker.filterOptions().likelihood,
+                      options, &why_not);
+    if (fit) {
+      // The sets the subject was found in (fitBodyInPose may leave some out).
+      if (!fit->poses.empty()) result.frame_sets_used = static_cast<int>(fit->poses.size());
+      result.fit = *fit;
+      result.body = proportionedBodyModel(model, fit->proportions);
+    } else {
+      result.error = BodyFitError::kNoSubject;
+      result.message = "no subject found standing in the fit pose: " + why_not;
+    }
+  } catch (const BodyFitStopped&) {
+    result.error = BodyFitError::kStopped;
+    result.message = "the pipeline stopped during the body fit";
+  } catch (const std::exception& error) {
+    result.error = BodyFitError::kFailed;
+    result.message = std::string("the body fit failed: ") + error.what();
+  }
+  result.fit_seconds = static_cast<double>(monotonicNowNs() - start) / 1e9;
+  if (result.error == BodyFitError::kNone) {
+    std::ostringstream proportions;
+    for (int k = 0; k < BodyProportions::kCount; ++k)
+      proportions << (k ? ", " : "") << BodyProportions::name(k) << " " << std::fixed
+                  << std::setprecision(3) << result.fit.proportions[k];
+    logInfo() << "body fitted from " << result.frame_sets_used << " frame sets in " << std::fixed
+              << std::setprecision(1) << result.fit_seconds << " s: " << proportions.str();
+  }
+  endBodyFit(collection.done, result);
+}
+
+void Pipeline::endBodyFit(const std::function<void(const FitBodyResult&)>& done,
+                          const FitBodyResult& result) {
+  {
+    std::lock_guard lock(capture_mutex_);
+    fit_busy_ = false;
+  }
+  done(result);
 }
 
 void Pipeline::learnBackground(BackgroundCapture& capture, std::size_t camera,
@@ -511,13 +645,16 @@ void Pipeline::maskLoop() {
   // Per camera: whether `latest` holds silhouettes (the truth, extracted or thresholded ones).
   std::vector<bool> has_silhouettes(cameras_.size(), ground_truth_ != nullptr);
   std::unique_ptr<BackgroundCapture> capture;
+  std::unique_ptr<BodyFitCollection> fit;
   while (true) {
-    if (!capture) {
+    {
       std::lock_guard lock(capture_mutex_);
-      capture = std::move(capture_request_);
+      if (!capture) capture = std::move(capture_request_);
+      if (!fit) fit = std::move(fit_request_);
     }
-    // Also checked without frames, so a capture on stalled cameras ends.
+    // Also checked without frames, so a capture or a fit on stalled cameras ends.
     if (capture && finishBackground(*capture)) capture.reset();
+    if (fit && collectForFit(*fit, nullptr)) fit.reset();
     std::optional<FrameSet> set = synchronizer_->pop(kPollInterval);
     if (!set) {
       if (!input_closed_) continue;
@@ -591,18 +728,28 @@ void Pipeline::maskLoop() {
       continue;
     }
     if (mask_observer_) mask_observer_(*set, latest);
+    if (fit && collectForFit(*fit, &latest)) fit.reset();
     masks.masks = latest;
     masks_.push(std::move(masks));
   }
   std::unique_ptr<BackgroundCapture> pending;
+  std::unique_ptr<BodyFitCollection> pending_fit;
   {
     std::lock_guard lock(capture_mutex_);
     accepting_captures_ = false;
     pending = std::move(capture_request_);
+    pending_fit = std::move(fit_request_);
   }
   if (!capture) capture = std::move(pending);
   if (capture)
     endCapture(capture->done, {BackgroundError::kStopped, "the pipeline stopped", 0, {}});
+  if (!fit) fit = std::move(pending_fit);
+  if (fit) {
+    endBodyFit(fit->done,
+               fitFailure(BodyFitError::kStopped,
+                          "the pipeline stopped after " + std::to_string(fit->frames.size()) +
+                              " of " + std::to_string(fit->frame_sets) + " frame sets"));
+  }
   masks_.close();
 }
 
@@ -638,8 +785,9 @@ void Pipeline::trackerLoop() {
     if (const Eigen::VectorXd reference =
             reference_pose_ ? reference_pose_(masks->frame_sequence) : Eigen::VectorXd();
         reference.size() == static_cast<long>(model_.dofs.size())) {
-      forwardKinematics(model_, reference_kinematics_, reference);
-      const std::vector<Eigen::Vector3d> truth = pointPositions(model_, reference_kinematics_);
+      const BodyModel& subject = reference_model_ ? *reference_model_ : model_;
+      forwardKinematics(subject, reference_kinematics_, reference);
+      const std::vector<Eigen::Vector3d> truth = pointPositions(subject, reference_kinematics_);
       double sum = 0;
       for (std::size_t p = 0; p < truth.size(); ++p) sum += (truth[p] - pose->points[p]).norm();
       pose->reference_error_mm = truth.empty() ? 0.0 : 1000 * sum / truth.size();

@@ -30,6 +30,7 @@
 #include "server/stats.h"
 #include "tracker/acquire.h"
 #include "tracker/body_model.h"
+#include "tracker/body_size.h"
 #include "tracker/camera.h"
 #include "tracker/filter.h"
 #include "tracker/kinematics.h"
@@ -67,6 +68,11 @@ struct PipelineInputs {
   // it (the fake scene; a replayed session that stores it): published poses then carry their error
   // against it, and recordings store it. An empty vector: no subject in view then, no error.
   std::function<Eigen::VectorXd(uint64_t sequence)> reference_pose;
+  // The body those poses are of, when not the tracked one (the fake scene's subject, tracked with
+  // the configured body): the true joints are placed on it. Same DOFs as the tracked body.
+  std::shared_ptr<const BodyModel> reference_model;
+  // The body fitBody() fits, when not the tracked one (which tracker.dofs: gait has frozen).
+  std::shared_ptr<const BodyModel> fit_model;
   // Where the subject starts; empty: the model's neutral pose.
   Eigen::VectorXd initial_pose;
   // Instead: the tracker finds the subject in the first frame sets (tracker/acquire.h). Needs a
@@ -138,6 +144,19 @@ struct BackgroundResult {
   std::vector<std::string> warnings;
 };
 
+// Why a body fit failed, so the service can pick the gRPC code. kCannotFit: the body has no
+// fit_pose or its root cannot be placed; kNoSubject: none found in the frame sets; kStalled:
+// no frame set with silhouettes from every camera for a while; kFailed: the fit threw.
+enum class BodyFitError { kNone, kCannotFit, kBusy, kNoSubject, kStalled, kStopped, kFailed };
+struct FitBodyResult {
+  BodyFitError error = BodyFitError::kNone;
+  std::string message;
+  int frame_sets_used = 0;  // collected, or once fitted, those the subject was found in
+  BodyFit fit;              // without an error
+  BodyModel body;           // the fitted body: the fitted model with fit.proportions
+  double fit_seconds = 0;   // the fit itself, after the frame sets were collected
+};
+
 class Pipeline {
  public:
   // The model, rig and publisher are borrowed and must outlive the pipeline. Throws
@@ -181,6 +200,16 @@ class Pipeline {
   // (the mask thread never waits on the disk). It must not block.
   void captureBackground(int frames, std::function<void(const BackgroundResult&)> done);
 
+  // Fits the body (PipelineInputs::fit_model, else the tracked one) to the subject standing in its
+  // fit_pose (tracker/body_size.h fitBodyInPose): the mask thread collects the silhouettes of
+  // `frame_sets` of the sets it hands the tracker, one every half second (so a subject turning
+  // in place is seen from several sides), then a thread of its own fits (seconds; the mask and
+  // tracker threads go on, and the tracker keeps its body). `done` is called once: at once on a
+  // refusal (no fit pose, a root that cannot be placed, a fit under way, the pipeline not running),
+  // on the mask thread when no set came for a while or the pipeline stops, else on the fit thread.
+  // It must not block. stop() ends a fit under way at its next frame set's search.
+  void fitBody(int frame_sets, std::function<void(const FitBodyResult&)> done);
+
   // Why reacquire() was refused, so the service can pick the gRPC code.
   enum class ReacquireError { kNone, kReplay, kCannotPlace };
   // The tracker finds the subject again from the next frame set, as at start. Refused in replay
@@ -207,6 +236,14 @@ class Pipeline {
     std::vector<BackgroundLearner> learners;  // per camera
     int64_t last_progress_ns = 0;
   };
+  struct BodyFitCollection {
+    int frame_sets = 0;
+    int every = 1;  // one set kept out of this many handed to the tracker
+    int seen = 0;
+    std::function<void(const FitBodyResult&)> done;
+    std::vector<std::vector<SilhouetteMask>> frames;
+    int64_t last_progress_ns = 0;
+  };
 
   void replayLoop();
   void maskLoop();
@@ -222,6 +259,14 @@ class Pipeline {
   bool finishBackground(BackgroundCapture& capture);
   void endCapture(const std::function<void(const BackgroundResult&)>& done,
                   const BackgroundResult& result);
+  // Mask thread: adds a set's silhouettes to the collection; once it has them all, starts the fit
+  // thread. True when the collection is over (handed on or given up, its `done` called).
+  bool collectForFit(BodyFitCollection& collection, const std::vector<SilhouetteMask>* masks);
+  // Fit thread.
+  void runBodyFit(BodyFitCollection collection);
+  void endBodyFit(const std::function<void(const FitBodyResult&)>& done,
+                  const FitBodyResult& result);
+  const BodyModel& fitModel() const { return fit_model_ ? *fit_model_ : model_; }
   // Constructor: loads what background_directory holds for each camera.
   void loadBackgrounds();
   // Mask thread (or the constructor): camera's silhouettes are extracted against `background`
@@ -250,6 +295,8 @@ class Pipeline {
   std::shared_ptr<const SessionReader> replay_;
   GroundTruthSilhouettes ground_truth_;
   std::function<Eigen::VectorXd(uint64_t)> reference_pose_;
+  std::shared_ptr<const BodyModel> reference_model_;  // null: the tracked model
+  std::shared_ptr<const BodyModel> fit_model_;        // null: the tracked model
   PosePublisher& publisher_;
   std::unique_ptr<FrameSynchronizer> synchronizer_;
   Handoff<MaskSet> masks_;
@@ -290,17 +337,24 @@ class Pipeline {
   std::vector<std::shared_ptr<const BackgroundModel>> backgrounds_in_use_;
   std::vector<uint64_t> next_frame_sequences_;
 
-  // A background capture, handed from the requester to the mask thread under capture_mutex_.
+  // A background capture, and a body fit's collection, handed from the requester to the mask
+  // thread under capture_mutex_.
   std::mutex capture_mutex_;
   std::unique_ptr<BackgroundCapture> capture_request_;
   bool capture_busy_ = false;        // requested or under way
-  bool accepting_captures_ = false;  // while the mask thread runs
+  bool accepting_captures_ = false;  // while the mask thread runs (captures and fits alike)
+  std::unique_ptr<BodyFitCollection> fit_request_;
+  bool fit_busy_ = false;  // requested, collecting or fitting
   // Mask thread only: per camera, null until a background is captured; in replay, per camera, the
   // index of the first of the session's backgrounds() not installed yet.
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;
   std::vector<std::size_t> next_replayed_backgrounds_;
   // Saves a capture's backgrounds; joined before the next one starts and by stop().
   std::thread save_thread_;
+  // Fits the body; started by the mask thread, joined before the next one starts and by stop(),
+  // which sets stop_fit_ first.
+  std::thread fit_thread_;
+  std::atomic<bool> stop_fit_{false};
   // Read by status(): where each camera's silhouettes come from, and the start-up warnings.
   mutable std::mutex silhouette_mutex_;
   std::vector<std::string> silhouette_sources_;

@@ -120,4 +120,19 @@ void cameraStatusToProto(const OpenedCamera& camera, const CameraRuntimeStatus& 
   drops->set_closed(status.sync.droppedBy(DropCause::kClosed));
 }
 
+void bodyFitToProto(const FitBodyResult& result, v1::FitBodyResponse& out) {
+  out.Clear();
+  out.set_body_model_yaml(formatBodyModel(result.body));
+  for (int k = 0; k < BodyProportions::kCount; ++k) {
+    v1::BodyProportion* proportion = out.add_proportions();
+    proportion->set_name(BodyProportions::name(k));
+    proportion->set_factor(result.fit.proportions[k]);
+  }
+  out.set_scale(result.fit.scale);
+  out.set_log_likelihood(result.fit.log_likelihood);
+  out.set_evaluations(result.fit.evaluations);
+  out.set_frame_sets_used(static_cast<uint32_t>(result.frame_sets_used));
+  out.set_fit_seconds(result.fit_seconds);
+}
+
 }  // namespace mocap

@@ -18,5 +18,7 @@ void cameraInfoToProto(const OpenedCamera& camera, v1::CameraInfo& out);
 void recordingToProto(const RecordingStatus& recording, v1::RecordingState& out);
 void cameraStatusToProto(const OpenedCamera& camera, const CameraRuntimeStatus& status,
                          bool pipeline_running, v1::CameraStatus& out);
+// A successful fit: the fitted body as a body model file, its proportions and figures.
+void bodyFitToProto(const FitBodyResult& result, v1::FitBodyResponse& out);
 
 }  // namespace mocap

@@ -79,12 +79,13 @@ class BuildScorer {
   BuildScorer(const BodyModel& model, const Rig& rig,
               const std::vector<std::vector<SilhouetteMask>>& frames,
               std::vector<Eigen::VectorXd> poses, const LikelihoodParams& likelihood,
-              int search_evaluations)
+              int search_evaluations, std::function<bool()> should_stop)
       : rig_(rig),
         frames_(frames),
         poses_(std::move(poses)),
         likelihood_(likelihood),
-        search_evaluations_(search_evaluations) {
+        search_evaluations_(search_evaluations),
+        should_stop_(std::move(should_stop)) {
     // Small steps: the tracked pose is near, and only what the build changes needs to move.
     for (std::size_t d = 0; d < model.dofs.size(); ++d) {
       if (!model.dofs[d].isFree()) continue;
@@ -101,6 +102,7 @@ class BuildScorer {
     double total = 0;
     refined->assign(poses_.begin(), poses_.end());
     for (std::size_t f = 0; f < frames_.size(); ++f) {
+      if (should_stop_ && should_stop_()) throw BodyFitStopped();
       auto value_of = [&](const Eigen::VectorXd& q) {
         return logLikelihood(likelihood_, evaluator.evaluate(q, frames_[f], 0));
       };
@@ -121,6 +123,7 @@ class BuildScorer {
   std::vector<Eigen::VectorXd> poses_;
   LikelihoodParams likelihood_;
   int search_evaluations_;
+  std::function<bool()> should_stop_;
   SearchDofs search_;
   long evaluations_ = 0;
 };
@@ -145,7 +148,8 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
         "body scale candidates: expected 0 < min_scale <= max_scale and a positive step");
 
   BodyFit fit;
-  BuildScorer scorer(model, rig, frames, poses, likelihood, options.search_evaluations);
+  BuildScorer scorer(model, rig, frames, poses, likelihood, options.search_evaluations,
+                     options.should_stop);
   auto uniform = [](double factor) {
     BodyProportions p;
     for (int k = 0; k < BodyProportions::kCount; ++k) p[k] = factor;
@@ -218,6 +222,7 @@ std::optional<BodyFit> fitBodyInPose(const BodyModel& model, const Rig& rig,
   long evaluations = 0;
   std::string why;
   for (const std::vector<SilhouetteMask>& masks : frames) {
+    if (options.should_stop && options.should_stop()) throw BodyFitStopped();
     const std::vector<Acquisition> found =
         acquireSubject(model, rig, masks, {pose}, likelihood, AcquireOptions{}, &why);
     if (found.empty()) continue;

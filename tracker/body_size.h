@@ -8,7 +8,9 @@
 // proportions (BodyProportions) are searched one at a time from there.
 #pragma once
 
+#include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -55,6 +57,14 @@ struct BodyFitOptions {
   double min_factor = 0.6, max_factor = 1.4;
   // Per frame and candidate body: the local search of its pose.
   int search_evaluations = 300;
+  // Asked before each frame set is searched: true ends the fit with BodyFitStopped (a daemon
+  // stopping does not wait seconds for it).
+  std::function<bool()> should_stop;
+};
+
+// Thrown by the fits when BodyFitOptions::should_stop says so.
+struct BodyFitStopped : std::runtime_error {
+  BodyFitStopped() : std::runtime_error("the body fit was stopped") {}
 };
 
 struct BodyFit {

@@ -1,5 +1,5 @@
 // The mocapctl subcommands that talk to mocapd: stream, status, skeleton, record, reacquire,
-// background, bvh, bench.
+// background, fit-body, bvh, bench.
 #include "clients/mocapctl/daemon_commands.h"
 
 #include <time.h>
@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -86,6 +88,30 @@ void progress(const std::string& text) {
     std::cerr << "\r" << text << std::flush;
   } else {
     std::cerr << text << "\n";
+  }
+}
+
+// Writes `text` to `path` under a hidden temporary name in the same folder, then renames it over
+// `path`: a reader never sees a half-written file, and a failure leaves the old one as it was.
+void writeFileAtomically(const std::string& path, const std::string& text) {
+  const std::filesystem::path target(path);
+  const std::filesystem::path temporary =
+      target.parent_path() /
+      ("." + target.filename().string() + ".tmp-" + std::to_string(::getpid()));
+  {
+    std::ofstream out(temporary, std::ios::trunc);
+    if (!out) throw std::runtime_error(path + ": cannot write in its folder");
+    out << text;
+    if (!out.flush()) {
+      std::filesystem::remove(temporary);
+      throw std::runtime_error(path + ": write failed");
+    }
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, target, error);
+  if (error) {
+    std::filesystem::remove(temporary);
+    throw std::runtime_error(path + ": " + error.message());
   }
 }
 
@@ -243,6 +269,47 @@ int runBackground(int argc, char** argv) {
   for (const mocap::v1::CameraStatus& camera : status.cameras())
     out["cameras"].push_back({{"id", camera.id()}, {"silhouettes", camera.silhouettes()}});
   std::cout << out.dump(1) << "\n";
+  return 0;
+}
+
+int runFitBody(int argc, char** argv) {
+  DaemonFlags flags;
+  std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
+  const std::string frames_text = takeFlag(args, "--frames");
+  const std::string out_path = takeFlag(args, "--out");
+  noMoreArguments(args);
+  mocap::v1::FitBodyRequest request;
+  if (!frames_text.empty())
+    request.set_frame_sets(static_cast<int32_t>(positiveNumber("--frames", frames_text)));
+  DaemonClient client(flags);
+  std::unique_ptr<grpc::ClientContext> context = client.context();
+  // The daemon answers DEADLINE_EXCEEDED itself when frames stop coming; this bound (a frame set a
+  // second at least, and the fit's 0.4-0.5 s per set, slower on a loaded core) only keeps a daemon
+  // that never answers from hanging the command.
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::seconds(60 + 3 * std::max(request.frame_sets(), 5)));
+  mocap::v1::FitBodyResponse response;
+  check(client.stub().FitBody(context.get(), request, &response), "FitBody");
+  nlohmann::ordered_json out = {{"frame_sets_used", response.frame_sets_used()},
+                                {"proportions", nlohmann::ordered_json::object()},
+                                {"scale", response.scale()},
+                                {"log_likelihood", response.log_likelihood()},
+                                {"evaluations", response.evaluations()},
+                                {"fit_seconds", response.fit_seconds()}};
+  for (const mocap::v1::BodyProportion& proportion : response.proportions())
+    out["proportions"][proportion.name()] = proportion.factor();
+  if (!out_path.empty()) {
+    writeFileAtomically(out_path, response.body_model_yaml());
+    out["written"] = out_path;
+    std::cout << out.dump(1) << "\n";
+    return 0;
+  }
+  // A body model file as it is: the figures as YAML comments above it.
+  std::istringstream summary(out.dump(1));
+  for (std::string line; std::getline(summary, line);) std::cout << "# " << line << "\n";
+  std::cout << response.body_model_yaml();
+  if (!response.body_model_yaml().empty() && response.body_model_yaml().back() != '\n')
+    std::cout << "\n";
   return 0;
 }
 

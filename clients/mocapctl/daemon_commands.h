@@ -17,6 +17,14 @@ inline constexpr const char* kReacquireUsage =
 inline constexpr const char* kBackgroundUsage =
     "background [--frames N]  learn the empty scene (nobody in view) as every camera's background\n"
     "                         from its next N frames (default 25): silhouettes are then extracted";
+inline constexpr const char* kFitBodyUsage =
+    "fit-body [--frames N] [--out FILE]   fit the body model to the subject, who stands in its\n"
+    "                         fit pose (the human's: arms 45 degrees out), turning in place,\n"
+    "                         from N frame sets half a second apart (default 5, at most 250);\n"
+    "                         prints the proportions, the scale and the sets used as JSON and\n"
+    "                         writes the fitted body model (YAML, for body_model:) to FILE,\n"
+    "                         replacing it atomically; without --out prints that YAML instead,\n"
+    "                         the figures as comments at its top";
 inline constexpr const char* kBvhUsage =
     "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
 inline constexpr const char* kBenchUsage =
@@ -29,6 +37,7 @@ int runSkeleton(int argc, char** argv);
 int runRecord(int argc, char** argv);
 int runReacquire(int argc, char** argv);
 int runBackground(int argc, char** argv);
+int runFitBody(int argc, char** argv);
 int runBvh(int argc, char** argv);
 int runBench(int argc, char** argv);
 

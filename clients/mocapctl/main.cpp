@@ -22,6 +22,7 @@ constexpr Command kCommands[] = {
     {"record", mocapctl::kRecordUsage, mocapctl::runRecord},
     {"reacquire", mocapctl::kReacquireUsage, mocapctl::runReacquire},
     {"background", mocapctl::kBackgroundUsage, mocapctl::runBackground},
+    {"fit-body", mocapctl::kFitBodyUsage, mocapctl::runFitBody},
     {"bvh", mocapctl::kBvhUsage, mocapctl::runBvh},
     {"bench", mocapctl::kBenchUsage, mocapctl::runBench},
 };

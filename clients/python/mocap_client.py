@@ -12,7 +12,9 @@ As a library:
 
 As a command:
     mocap_client.py stream [--count N] [--joints a,b]   JSON lines, one pose a line
-    mocap_client.py status | skeleton | health
+    mocap_client.py status | skeleton | health | reacquire | background [--frames N]
+    mocap_client.py fit-body [--frames N]   the fitted body model (YAML) on stdout, the figures
+                                            as comments at its top
 """
 
 import argparse
@@ -100,6 +102,15 @@ class MocapClient:
         return self._stub.CaptureBackground(request, metadata=self._metadata,
                                             timeout=60 + max(frames, 25))
 
+    def fit_body(self, frame_sets=0):
+        """Fits the body model to the subject, who stands in its fit pose turning slowly in place,
+        from `frame_sets` frame sets half a second apart (0: the daemon's default, 5); returns the
+        FitBodyResponse (the fitted body model as YAML in body_model_yaml, the proportions, the
+        scale, the sets used)."""
+        request = self.pb.FitBodyRequest(frame_sets=frame_sets)
+        return self._stub.FitBody(request, metadata=self._metadata,
+                                  timeout=60 + 3 * max(frame_sets, 5))
+
     def health(self, service=""):
         """grpc.health.v1.Health/Check without its stubs (Debian ships none): the request is
         HealthCheckRequest{service}, the reply HealthCheckResponse{status}, both tiny enough to
@@ -135,7 +146,7 @@ def pose_to_dict(pose):
 def main():
     parser = argparse.ArgumentParser(description="Python client of mocapd")
     parser.add_argument("command", choices=["stream", "status", "skeleton", "health", "reacquire",
-                                            "background"])
+                                            "background", "fit-body"])
     parser.add_argument("--server", default="127.0.0.1:50051")
     parser.add_argument("--token", default=os.environ.get("MOCAP_TOKEN"))
     parser.add_argument("--tls-ca", help="the daemon's certificate (PEM): connect with TLS")
@@ -145,7 +156,8 @@ def main():
     parser.add_argument("--count", type=int, default=0, help="stream: stop after N poses")
     parser.add_argument("--joints", default="", help="stream: comma-separated joint names")
     parser.add_argument("--frames", type=int, default=0,
-                        help="background: frames per camera to learn from (0: the daemon's 25)")
+                        help="background: frames per camera to learn from (0: the daemon's 25); "
+                        "fit-body: frame sets to fit from (0: the daemon's 5)")
     args = parser.parse_args()
 
     client = MocapClient(args.server, args.token, args.tls_ca, args.stubs, args.tls_cert,
@@ -172,6 +184,14 @@ def main():
             learned = client.capture_background(args.frames)
             print(json.dumps({"frames_used": learned.frames_used,
                               "warnings": list(learned.warnings)}))
+        elif args.command == "fit-body":
+            fitted = client.fit_body(args.frames)
+            summary = {"frame_sets_used": fitted.frame_sets_used,
+                       "proportions": {p.name: p.factor for p in fitted.proportions},
+                       "scale": fitted.scale, "fit_seconds": fitted.fit_seconds}
+            for line in json.dumps(summary, indent=1).splitlines():
+                print("# " + line)
+            sys.stdout.write(fitted.body_model_yaml)
         else:
             print(client.health())
     except client._grpc.RpcError as error:

@@ -83,6 +83,23 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
                              scene->model_->name + " has " + std::to_string(dofs) + " DOFs");
       }
     }
+    if (o.fit_pose_frames > 0) {
+      const BodyModel& model = *scene->model_;
+      if (!model.fit_pose)
+        return Status::Error(
+            "fake scene: the subject cannot stand in the fit pose: the body model '" + model.name +
+            "' has no fit_pose");
+      // Where the motion starts and the way it faces there, in the fit pose.
+      const Eigen::VectorXd& first = scene->motion_->front();
+      scene->fit_pose_ = model.stancePose(*model.fit_pose);
+      for (int d : model.segments.front().dofs) {
+        const Dof& dof = model.dofs[d];
+        const bool about_z =
+            dof.type == DofType::kRotation && dof.axis.isApprox(Eigen::Vector3d::UnitZ());
+        if (dof.type == DofType::kTranslation || about_z) scene->fit_pose_[d] = first[d];
+        if (about_z) scene->fit_turn_dof_ = d;
+      }
+    }
     if (o.rig.empty()) {
       if (o.cameras <= 0) return Status::Error("fake scene: cameras must be positive");
       o.rig = defaultFakeRig(*scene->model_, *scene->motion_, o.cameras, o.width, o.height);
@@ -135,8 +152,8 @@ int64_t FakeScene::epochNs() {
 }
 
 std::size_t FakeScene::motionFrame(uint64_t sequence) const {
-  if (!subjectInView(sequence)) return 0;
-  sequence -= options_.empty_frames;
+  if (!subjectInView(sequence) || inFitPose(sequence)) return 0;
+  sequence -= options_.empty_frames + options_.fit_pose_frames;
   // Forward then backward: a looped motion would jump from its last pose to its first.
   const uint64_t n = motion_->size();
   if (n == 1) return 0;
@@ -146,7 +163,18 @@ std::size_t FakeScene::motionFrame(uint64_t sequence) const {
 }
 
 Eigen::VectorXd FakeScene::truePose(uint64_t sequence) const {
-  return subjectInView(sequence) ? (*motion_)[motionFrame(sequence)] : Eigen::VectorXd();
+  if (!subjectInView(sequence)) return Eigen::VectorXd();
+  if (!inFitPose(sequence)) return (*motion_)[motionFrame(sequence)];
+  Eigen::VectorXd pose = fit_pose_;
+  if (fit_turn_dof_ >= 0) {
+    // Turning back and forth by up to 45 degrees either way, a 4 s cycle, ending facing the
+    // motion's way as it starts.
+    const double left_s =
+        static_cast<double>(options_.empty_frames + options_.fit_pose_frames - sequence) *
+        static_cast<double>(period_ns_) / 1e9;
+    pose[fit_turn_dof_] += M_PI / 4 * std::sin(2 * M_PI * left_s / 4.0);
+  }
+  return pose;
 }
 
 GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
@@ -175,7 +203,7 @@ void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch
 
 void FakeScene::paintSubject(const CameraModel& cam, uint64_t sequence, FakeRenderScratch& scratch,
                              cv::Mat& image) const {
-  forwardKinematics(*model_, scratch.kinematics, (*motion_)[motionFrame(sequence)]);
+  forwardKinematics(*model_, scratch.kinematics, truePose(sequence));
 
   // Painter's order, farthest segment first, so nearer segments cover it as they would.
   std::vector<std::pair<double, std::size_t>> order;

@@ -65,6 +65,13 @@ struct FakeSceneOptions {
   // Frames the cameras see the empty scene before the subject walks in, as a real room before
   // the session starts: time to capture the background. The motion starts at its first frame then.
   uint64_t empty_frames = 0;
+  // Then, frames the subject stands in the model's fit_pose (tracker/body_size.h) before the
+  // motion starts, as a real subject asked to while the body is fitted to them, turning in place
+  // back and forth by up to 45 degrees (a 4 s cycle) to show the cameras more sides: the motion's
+  // first frame with every DOF but the root's translations and its rotation about Z (where it
+  // stands and faces, once the turns are over) replaced by the fit pose's. Needs a model with a
+  // fit_pose.
+  uint64_t fit_pose_frames = 0;
   FakeFaults faults;
 };
 
@@ -109,11 +116,16 @@ class FakeScene {
   int64_t exposureTimeNs(uint64_t sequence) {
     return epochNs() + static_cast<int64_t>(sequence) * period_ns_;
   }
-  // Whether the subject is in view in frame `sequence` (options().empty_frames), and which frame
-  // of the motion it shows then.
+  // Whether the subject is in view in frame `sequence` (options().empty_frames), whether it stands
+  // in the fit pose then (options().fit_pose_frames), and which frame of the motion it shows (0
+  // while it stands).
   bool subjectInView(uint64_t sequence) const { return sequence >= options_.empty_frames; }
+  bool inFitPose(uint64_t sequence) const {
+    return subjectInView(sequence) && sequence - options_.empty_frames < options_.fit_pose_frames;
+  }
   std::size_t motionFrame(uint64_t sequence) const;
-  // The subject's DOF vector in frame `sequence`, empty while the scene is empty. Cheap: no render.
+  // The subject's DOF vector in frame `sequence` (the standing pose while it stands in the fit
+  // pose), empty while the scene is empty. Cheap: no render.
   Eigen::VectorXd truePose(uint64_t sequence) const;
 
   // The ground truth of frame `sequence`. Thread-safe (serialized); renders on each call.
@@ -141,6 +153,8 @@ class FakeScene {
   FakeSceneOptions options_;
   std::shared_ptr<const BodyModel> model_;
   std::shared_ptr<const Motion> motion_;
+  Eigen::VectorXd fit_pose_;  // with fit_pose_frames: the pose the subject stands in, unturned
+  int fit_turn_dof_ = -1;     // the root's rotation about Z, which the turns change
   Rig rig_;
   int64_t period_ns_ = 0;
   std::vector<cv::Mat> backgrounds_;

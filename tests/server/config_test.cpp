@@ -357,6 +357,52 @@ TEST(ConfigTest, ATlsCertificateAndKeyAreCheckedBeforeTheyAreServed) {
   std::filesystem::remove_all(dir);
 }
 
+// A scene_motion's subject can first stand in the body's fit pose, and the tracker can be made
+// to track the configured body rather than the subject's; both keys need a scene_motion.
+TEST(ConfigTest, TheFitPoseSecondsAndTheTrackedBodyOfASceneMotion) {
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
+  const ServerConfig plain = parseConfig(cameras + "scene_motion: " + walk + "\n", "t.yaml", ".");
+  EXPECT_EQ(plain.scene_fit_pose_seconds, 0);
+  EXPECT_TRUE(plain.track_subject_body);
+  const ServerConfig fitting = parseConfig(cameras + "scene_motion: " + walk +
+                                               "\nscene_fit_pose_seconds: 4.5\n"
+                                               "track_subject_body: false\n",
+                                           "t.yaml", ".");
+  EXPECT_EQ(fitting.scene_fit_pose_seconds, 4.5);
+  EXPECT_FALSE(fitting.track_subject_body);
+
+  // A body model file without a fit pose has nothing to stand in.
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "config_fit_pose";
+  std::filesystem::create_directories(dir);
+  {
+    std::ifstream in(MOCAP_SOURCE_DIR "/tracker/models/human.yaml");
+    std::ofstream out(dir / "no_fit_pose.yaml");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("fit_pose:", 0) != 0) out << line << "\n";
+  }
+  const std::string no_fit_pose = (dir / "no_fit_pose.yaml").string();
+  const std::pair<std::string, std::string> cases[] = {
+      {cameras + "scene_fit_pose_seconds: 3\n",
+       "test.yaml:3: scene_fit_pose_seconds: needs a scene_motion (the fake scene playing a "
+       "recorded subject)"},
+      {cameras + "track_subject_body: false\n",
+       "test.yaml:3: track_subject_body: needs a scene_motion"},
+      {cameras + "scene_motion: " + walk + "\nscene_fit_pose_seconds: -2\n",
+       "test.yaml:4: scene_fit_pose_seconds: must be between 0 and 3600, got -2"},
+      {cameras + "scene_motion: " + walk + "\nscene_fit_pose_seconds: soon\n",
+       "test.yaml:4: scene_fit_pose_seconds: expected a number, got 'soon'"},
+      {cameras + "scene_motion: " + walk + "\ntrack_subject_body: perhaps\n",
+       "test.yaml:4: track_subject_body: expected true or false, got 'perhaps'"},
+      {cameras + "body_model: " + no_fit_pose + "\nscene_motion: " + walk +
+           "\nscene_fit_pose_seconds: 3\n",
+       "test.yaml:5: scene_fit_pose_seconds: the body model 'human' (" + no_fit_pose +
+           ") has no fit_pose to stand in"},
+  };
+  for (const auto& [yaml, expected] : cases)
+    EXPECT_THAT(errorOf(yaml), HasSubstr(expected)) << yaml;
+}
+
 TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   EXPECT_EQ(

@@ -1,5 +1,5 @@
 // Shared by the server tests: a daemon configuration on the fake scene, a loopback client, a
-// background capture request, and a pose reader that counts what it receives.
+// background capture request, a body fit request, and a pose reader that counts what it receives.
 #pragma once
 
 #include <atomic>
@@ -38,6 +38,17 @@ inline grpc::Status captureBackground(v1::MocapService::Stub& stub, uint32_t fra
   v1::CaptureBackgroundRequest request;
   request.set_frames(frames);
   return stub.CaptureBackground(&context, request, &response);
+}
+
+// Asks the daemon to fit the body from `frame_sets` frame sets, waiting at most `deadline`.
+inline grpc::Status fitBody(v1::MocapService::Stub& stub, int frame_sets,
+                            v1::FitBodyResponse& response,
+                            std::chrono::seconds deadline = std::chrono::seconds(60)) {
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + deadline);
+  v1::FitBodyRequest request;
+  request.set_frame_sets(frame_sets);
+  return stub.FitBody(&context, request, &response);
 }
 
 // Reads a pose stream on its own thread, counting poses and the frame-set sequences they span.

@@ -1,6 +1,6 @@
 // Fitting the body to a subject: proportions change the bones they name and keep the feet on the
 // floor; a subject of another build standing in the fit pose is found and its build recovered
-// from two cameras; no subject, or a model without a fit pose, is said so.
+// from two cameras; no subject, or a model without a fit pose, is said so; a fit stops when asked.
 #include "tracker/body_size.h"
 
 #include <gmock/gmock.h>
@@ -127,6 +127,18 @@ TEST(BodyFit, NoSubjectOrNoFitPoseIsSaid) {
     EXPECT_THAT(e.what(), HasSubstr("has no fit_pose"));
   }
   EXPECT_THROW(fitBodyToSubject(human, rig, empty, {}, LikelihoodParams{}), std::invalid_argument);
+}
+
+TEST(BodyFit, StopsWhenAsked) {
+  const BodyModel human = builtinHumanModel();
+  const Eigen::VectorXd standing = human.stancePose(*human.fit_pose);
+  const Rig rig = labRig(2, human, Motion{standing});
+  const std::vector<std::vector<SilhouetteMask>> frames = {silhouettes(human, rig, standing)};
+  int asked = 0;
+  BodyFitOptions options;
+  options.should_stop = [&] { return ++asked > 3; };  // after three frame-set searches
+  EXPECT_THROW(fitBodyInPose(human, rig, frames, LikelihoodParams{}, options), BodyFitStopped);
+  EXPECT_EQ(asked, 4);
 }
 
 }  // namespace

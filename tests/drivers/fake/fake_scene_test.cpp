@@ -1,5 +1,6 @@
 // The fake driver's scene cameras: pacing, ground truth, fault knobs, enumeration, registration.
 #include <chrono>
+#include <optional>
 #include <set>
 
 #include <gmock/gmock.h>
@@ -149,6 +150,78 @@ TEST(FakeSceneCamera, AnEmptyRoomUntilTheSubjectWalksIn) {
     cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
     EXPECT_EQ(cv::countNonZero(difference > 40) > 500, in_view) << frame.sequence;
   }
+}
+
+// With fit_pose_frames the subject, once in view, first stands in the body model's fit pose where
+// the motion starts, turning in place by up to 45 degrees either way; the truth says so; then the
+// motion plays from its first frame. A body without a fit pose cannot stand in it.
+TEST(FakeSceneCamera, TheSubjectStandsInTheFitPoseBeforeTheMotion) {
+  FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 8);
+  const BodyModel human = builtinHumanModel();
+  ASSERT_TRUE(human.fit_pose);
+  options.scene.model = std::make_shared<const BodyModel>(human);
+  options.scene.generated_frames = 20;
+  options.scene.empty_frames = 2;
+  options.scene.fit_pose_frames = 3;
+  FakeDriver driver(options);
+  const std::vector<Frame> frames = firstFrames(driver, sceneCamera(0, options), 8);
+  ASSERT_EQ(frames.size(), 8u);
+  std::shared_ptr<FakeScene> scene = driver.scene().value();
+  const Eigen::VectorXd& first = scene->motion().front();
+  Eigen::VectorXd standing = human.stancePose(*human.fit_pose);
+  for (const char* kept : {"root_tx", "root_ty", "root_tz", "root_yaw"})
+    standing[human.dofIndex(kept)] = first[human.dofIndex(kept)];
+  ASSERT_NE(standing, first);  // the generated motion does not start in the fit pose
+  const int yaw = human.dofIndex("root_yaw");
+  std::optional<cv::Mat> standing_silhouette;
+  std::vector<double> headings;
+  for (const Frame& frame : frames) {
+    SCOPED_TRACE(frame.sequence);
+    const GroundTruth truth = scene->groundTruth(frame.sequence);
+    EXPECT_EQ(scene->truePose(frame.sequence), truth.q);
+    EXPECT_EQ(scene->inFitPose(frame.sequence), frame.sequence >= 2 && frame.sequence < 5);
+    cv::Mat difference;
+    cv::absdiff(frame.image, scene->background(0), difference);
+    cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+    cv::Mat painted = difference > 40;
+    if (frame.sequence < 2) {
+      EXPECT_EQ(truth.q.size(), 0);
+      EXPECT_EQ(cv::countNonZero(painted), 0);
+      continue;
+    }
+    // The image shows the true pose: painted where its silhouette is, and little elsewhere.
+    ASSERT_GT(cv::countNonZero(truth.silhouettes[0]), 100);
+    cv::Mat outside;
+    cv::bitwise_and(painted, ~truth.silhouettes[0], outside);
+    EXPECT_LT(cv::countNonZero(outside), cv::countNonZero(truth.silhouettes[0]) / 20);
+    if (frame.sequence < 5) {
+      // The fit pose, turned about the motion's first heading.
+      Eigen::VectorXd turned = standing;
+      turned[yaw] = truth.q[yaw];
+      EXPECT_EQ(truth.q, turned);
+      EXPECT_LE(std::abs(truth.q[yaw] - first[yaw]), M_PI / 4 + 1e-12);
+      headings.push_back(truth.q[yaw]);
+      EXPECT_EQ(truth.motion_frame, 0u);
+      // Turning: no two standing frames alike.
+      if (standing_silhouette) {
+        EXPECT_GT(cv::countNonZero(truth.silhouettes[0] != *standing_silhouette), 100);
+      }
+      standing_silhouette = truth.silhouettes[0];
+    } else {
+      EXPECT_EQ(truth.q, scene->motion()[frame.sequence - 5]);
+      EXPECT_EQ(truth.motion_frame, frame.sequence - 5);
+    }
+  }
+
+  ASSERT_EQ(headings.size(), 3u);
+  EXPECT_NE(headings[0], headings[1]);
+  EXPECT_NE(headings[1], headings[2]);
+
+  FakeSceneOptions hand = smallScene(FakePacing::kAsFastAsPossible, 8).scene;
+  hand.fit_pose_frames = 3;
+  const Expected<std::shared_ptr<FakeScene>> refused = FakeScene::create(hand);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.error(), HasSubstr("the body model 'hand' has no fit_pose"));
 }
 
 TEST(FakeSceneCamera, AsFastAsPossibleDeliversEveryFrameOnePeriodApart) {
