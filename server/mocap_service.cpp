@@ -67,10 +67,11 @@ grpc::Status backgroundStatus(const BackgroundResult& result) {
   return grpc::Status(grpc::StatusCode::UNKNOWN, result.message);
 }
 
-// 0 in a request: enough for the fit (docs/human.md fits from 5), about 2 s of it on one core.
+// 0 in a request: enough for the fit (docs/human.md fits from 5), 2 s of turning and about 2.4 s
+// of fitting on one core.
 constexpr int kDefaultFitFrameSets = 5;
-// Each set adds about 0.4 s of fitting and two 120 KB silhouettes per camera held meanwhile; a
-// stopping daemon waits for a fit under way.
+// Each set adds half a second of collecting, about 0.5 s of fitting and a 120 KB silhouette per
+// camera held meanwhile.
 constexpr int kMaxFitFrameSets = 250;
 
 grpc::Status bodyFitStatus(const FitBodyResult& result) {

@@ -83,7 +83,8 @@ TEST(ExampleConfigsTest, EveryShippedExampleIsCoveredHere) {
   }
   EXPECT_EQ(found,
             (std::set<std::string>{"fake.yaml", "fake-walk.yaml", "fake-walk-extracted.yaml",
-                                   "gige.yaml", "libcamera.yaml", "replay.yaml", "v4l2.yaml"}));
+                                   "fake-walk-fit.yaml", "gige.yaml", "libcamera.yaml",
+                                   "replay.yaml", "v4l2.yaml"}));
 }
 
 TEST(ExampleConfigsTest, FakeIsTheEmbeddedDefaultSpeltOut) {
@@ -133,6 +134,20 @@ TEST(ExampleConfigsTest, FakeWalkExtractedStartsEmptyAndExtractsTheSilhouettes) 
   EXPECT_EQ(config.tracker.start, "acquire");
   EXPECT_EQ(config.tracker.evaluations, walk.tracker.evaluations);
   EXPECT_EQ(config.tracker.refine, walk.tracker.refine);
+  EXPECT_EQ(config.tracker.lookahead, walk.tracker.lookahead);
+}
+
+// Fitting the body: the shipped human tracked as given while the walk's subject stands in the fit
+// pose first; the people defaults otherwise.
+TEST(ExampleConfigsTest, FakeWalkFitTracksTheShippedBodyWhileTheSubjectStandsInTheFitPose) {
+  const ServerConfig config = loadConfigFile((kConfigDir / "fake-walk-fit.yaml").string());
+  const ServerConfig walk = loadConfigFile((kConfigDir / "fake-walk.yaml").string());
+  EXPECT_EQ(config.scene_motion, walk.scene_motion);
+  EXPECT_EQ(config.body_model, "builtin:human");
+  EXPECT_FALSE(config.track_subject_body);
+  EXPECT_TRUE(walk.track_subject_body);
+  EXPECT_EQ(config.scene_fit_pose_seconds, 20.0);
+  EXPECT_EQ(config.tracker.evaluations, walk.tracker.evaluations);
   EXPECT_EQ(config.tracker.lookahead, walk.tracker.lookahead);
 }
 
