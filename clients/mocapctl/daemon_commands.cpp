@@ -283,8 +283,8 @@ int runFitBody(int argc, char** argv) {
     request.set_frame_sets(static_cast<int32_t>(positiveNumber("--frames", frames_text)));
   DaemonClient client(flags);
   std::unique_ptr<grpc::ClientContext> context = client.context();
-  // The daemon answers DEADLINE_EXCEEDED itself when frames stop coming; this bound (a frame set a
-  // second at least, and the fit's 0.4-0.5 s per set, slower on a loaded core) only keeps a daemon
+  // The daemon answers DEADLINE_EXCEEDED itself when frames stop coming; this bound (half a second
+  // to collect each set and about as much to fit it, slower on a loaded core) only keeps a daemon
   // that never answers from hanging the command.
   context->set_deadline(std::chrono::system_clock::now() +
                         std::chrono::seconds(60 + 3 * std::max(request.frame_sets(), 5)));

@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tracker/acquire.h"
+#include "tracker/body_size.h"
 #include "tracker/bvh.h"
 #include "tracker/experiments/args.h"
 #include "tracker/experiments/commands.h"
@@ -214,8 +215,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   };
   // The body the tracker knows: the subject's own (every other table of docs/human.md), the
   // model file as given, or that file scaled to the size fitted from the first seconds.
-  std::optional<BodyFit> size_fit;
-  double size_fit_seconds = 0;
+  std::optional<BodyFit> body_fit;
+  double body_fit_seconds = 0;
   BodyModel tracked_body = model;
   if (config.tracked_body == "default") {
     tracked_body = unfitted;
@@ -244,11 +245,11 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     }
     const auto start = std::chrono::steady_clock::now();
     std::string why_not;
-    size_fit = fitBodyInPose(unfitted, rig, fit_frames, options.likelihood, {}, &why_not);
-    size_fit_seconds =
+    body_fit = fitBodyInPose(unfitted, rig, fit_frames, options.likelihood, {}, &why_not);
+    body_fit_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!size_fit) throw std::runtime_error("--tracked-body fit: no subject found: " + why_not);
-    tracked_body = proportionedBodyModel(unfitted, size_fit->proportions);
+    if (!body_fit) throw std::runtime_error("--tracked-body fit: no subject found: " + why_not);
+    tracked_body = proportionedBodyModel(unfitted, body_fit->proportions);
   } else if (config.tracked_body != "truth") {
     throw std::invalid_argument("--tracked-body: expected truth, default or fit, got '" +
                                 config.tracked_body + "'");
@@ -489,14 +490,14 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     out["tracked_body"] = config.tracked_body;
     out["body_floor_mm"] = body_floor_mm / scored;
   }
-  if (size_fit) {
-    out["body_scale"] = size_fit->scale;
+  if (body_fit) {
+    out["body_scale"] = body_fit->scale;
     nlohmann::json proportions = nlohmann::json::object();
     for (int k = 0; k < BodyProportions::kCount; ++k)
-      proportions[BodyProportions::name(k)] = size_fit->proportions[k];
+      proportions[BodyProportions::name(k)] = body_fit->proportions[k];
     out["body_proportions"] = proportions;
-    out["body_fit_evaluations"] = size_fit->evaluations;
-    out["body_fit_seconds"] = size_fit_seconds;
+    out["body_fit_evaluations"] = body_fit->evaluations;
+    out["body_fit_seconds"] = body_fit_seconds;
   }
   if (config.skip_rate > 0) {
     out["skip_rate"] = config.skip_rate;

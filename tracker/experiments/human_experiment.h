@@ -13,7 +13,6 @@
 #include <opencv2/core/mat.hpp>
 
 #include "tracker/body_model.h"
-#include "tracker/body_size.h"
 #include "tracker/builtin_models.h"
 #include "tracker/camera.h"
 #include "tracker/filter.h"
@@ -42,7 +41,7 @@ FilterOptions humanFilterDefaults();
 std::string lostFrameCause(double left_leg, double right_leg, double worst_arm,
                            double heading_error_deg, double legs_swapped);
 
-// Frames of the subject standing in the fit pose that --tracked-body fit fits the body to.
+// Frames of the subject in the fit pose, turning, that --tracked-body fit fits the body to.
 inline constexpr int kFitFrames = 5;
 
 struct HumanExperimentConfig {
@@ -69,7 +68,7 @@ struct HumanExperimentConfig {
   double subject_scale = 1;
   // The body the tracker is given: "truth" (the subject's own), "default" (the model file, the
   // shipped human a 1.75 m adult's), or "fit" (the model file fitted by fitBodyInPose to
-  // kFitFrames frames of the subject standing in its fit_pose before the motion).
+  // kFitFrames frames of the subject in its fit_pose before the motion, turning a quarter turn).
   std::string tracked_body = "truth";
   // A live tracker that cannot keep up: each frame after the first is skipped (not tracked, not
   // scored) with this probability, from its own seeded stream, as mocapd drops the frame sets
