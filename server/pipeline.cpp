@@ -452,8 +452,8 @@ void Pipeline::runBodyFit(BodyFitCollection collection) {
         fitBodyInPose(model, rig_, collection.frames, config_.tracker.filterOptions().likelihood,
                       options, &why_not);
     if (fit) {
-      // The sets the subject was found in (fitBodyInPose may leave some out).
-      if (!fit->poses.empty()) result.frame_sets_used = static_cast<int>(fit->poses.size());
+      // The sets the subject was found in (fitBodyInPose leaves the others out).
+      result.frame_sets_used = static_cast<int>(fit->poses.size());
       result.fit = *fit;
       result.body = proportionedBodyModel(model, fit->proportions);
     } else {
@@ -562,13 +562,17 @@ bool Pipeline::finishBackground(BackgroundCapture& capture) {
           "capture again with the room empty");
   // Someone standing still through the capture is steady in it; the background it replaces (if
   // any, of the same image format) still shows the room without them.
+  // Judged by the test the extractors apply (their default options, as useBackground makes them).
+  const SilhouetteOptions extraction;
   std::ostringstream changed_shares;
   for (std::size_t c = 0; c < models.size(); ++c) {
     const BackgroundModel* before = replaced[c].get();
     if (!before || before->size() != models[c]->size() ||
         before->channels() != models[c]->channels())
       continue;
-    judge(c, changedShare(*before, *models[c]), changed_shares, "camera " + std::to_string(c) + " ",
+    judge(c,
+          changedShare(*before, *models[c], extraction.threshold_sigmas, extraction.min_difference),
+          changed_shares, "camera " + std::to_string(c) + " ",
           "differs from the background it replaces (someone in view, or the room or its lighting "
           "changed?): if someone stood in view, capture again with the room empty");
   }

@@ -163,7 +163,6 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
     const double scale = options.min_scale + k * options.scale_step;
     std::vector<Eigen::VectorXd> refined;
     const double value = scorer.score(proportionedBodyModel(model, uniform(scale)), &refined);
-    fit.scales.push_back(scale);
     fit.scale_log_likelihoods.push_back(value);
     if (value > fit.log_likelihood) {
       fit.log_likelihood = value;

@@ -71,8 +71,8 @@ struct BodyFit {
   BodyProportions proportions;  // the fitted build (all equal to scale if proportion_rounds is 0)
   double scale = 1;             // the best whole-body scale of the grid
   double log_likelihood = 0;    // of the fitted build: its refined poses' sum over the frames
-  std::vector<double> scales;   // the grid
-  std::vector<double> scale_log_likelihoods;  // of each
+  // Of each scale of the grid, in order.
+  std::vector<double> scale_log_likelihoods;
   std::vector<Eigen::VectorXd> poses;         // the refined poses with the fitted build
   long evaluations = 0;                       // full-body evaluations spent
 };

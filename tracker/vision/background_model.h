@@ -44,11 +44,11 @@ double unsteadyShare(const BackgroundModel& model, double grey_levels = 15);
 
 // The share of pixels (0 to 1) whose mean, in any channel, moved from `before` to `after` by more
 // than max(sigmas * before's standard deviation, min_difference) grey levels (the silhouette
-// extractor's default test): what changed in the room between two captures. Someone standing
-// still through a capture is steady in it, but not in the background it replaces. Throws
-// std::invalid_argument if the models differ in size or channels.
-double changedShare(const BackgroundModel& before, const BackgroundModel& after, double sigmas = 4,
-                    double min_difference = 9);
+// extractor's test, with its SilhouetteOptions): what changed in the room between two captures.
+// Someone standing still through a capture is steady in it, but not in the background it
+// replaces. Throws std::invalid_argument if the models differ in size or channels.
+double changedShare(const BackgroundModel& before, const BackgroundModel& after, double sigmas,
+                    double min_difference);
 
 // OpenCV FileStorage (YAML or XML by extension, ".gz" appended compresses), matrices in base64.
 // saveBackground replaces `path` atomically (a hidden temporary file in the same directory, read

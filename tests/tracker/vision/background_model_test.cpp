@@ -72,7 +72,7 @@ TEST(BackgroundModel, ChangedShareCountsWhatMovedSinceTheBackgroundItReplaces) {
     const std::vector<cv::Mat> first(frames.begin(), frames.begin() + 25);
     std::vector<cv::Mat> second(frames.begin() + 25, frames.end());
     const BackgroundModel before = learnBackground(first);
-    EXPECT_EQ(changedShare(before, learnBackground(second)), 0.0) << type;
+    EXPECT_EQ(changedShare(before, learnBackground(second), 4, 9), 0.0) << type;
     // A 10 % patch 30 levels brighter in the first channel in every frame: steady, but changed.
     for (cv::Mat& frame : second) {
       cv::Mat patch = frame(cv::Rect(5, 5, 12, 10));
@@ -83,14 +83,14 @@ TEST(BackgroundModel, ChangedShareCountsWhatMovedSinceTheBackgroundItReplaces) {
     }
     const BackgroundModel after = learnBackground(second);
     EXPECT_EQ(unsteadyShare(after), 0.0) << type;
-    EXPECT_NEAR(changedShare(before, after), 0.10, 1e-9) << type;
+    EXPECT_NEAR(changedShare(before, after, 4, 9), 0.10, 1e-9) << type;
     // The floor of the test decides for a change well above the noise: 25 levels count, 40 not.
     EXPECT_NEAR(changedShare(before, after, 4, 25), 0.10, 1e-9) << type;
     EXPECT_EQ(changedShare(before, after, 4, 40), 0.0) << type;
   }
   const BackgroundModel gray = learnBackground(noisyFrames(CV_8UC1, 5, 3.0));
   const BackgroundModel colour = learnBackground(noisyFrames(CV_8UC3, 5, 3.0));
-  EXPECT_THROW(changedShare(gray, colour), std::invalid_argument);
+  EXPECT_THROW(changedShare(gray, colour, 4, 9), std::invalid_argument);
 }
 
 TEST(BackgroundModel, RefusesMismatchedFrames) {
