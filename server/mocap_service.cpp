@@ -79,6 +79,7 @@ grpc::Status bodyFitStatus(const FitBodyResult& result) {
     case BodyFitError::kNone:
       return grpc::Status::OK;
     case BodyFitError::kCannotFit:
+    case BodyFitError::kCannotApply:
     case BodyFitError::kBusy:
     case BodyFitError::kNoSubject:
       return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, result.message);
@@ -143,7 +144,9 @@ grpc::ServerUnaryReactor* MocapServiceImpl::GetSkeleton(grpc::CallbackServerCont
                                                         const v1::GetSkeletonRequest*,
                                                         v1::Skeleton* response) {
   if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
-  skeletonToProto(model_, *response);
+  const TrackedBody body = pipeline_.trackedBody();
+  skeletonToProto(*body.model, *response);
+  response->set_body_version(body.version);
   return finish(context, grpc::Status::OK);
 }
 
@@ -275,11 +278,12 @@ grpc::ServerUnaryReactor* MocapServiceImpl::FitBody(grpc::CallbackServerContext*
                          "); got " + std::to_string(request->frame_sets())));
   }
   const int frame_sets = request->frame_sets() == 0 ? kDefaultFitFrameSets : request->frame_sets();
-  logInfo() << "body fit from " << frame_sets << " frame sets requested by " << context->peer();
+  logInfo() << "body fit from " << frame_sets << " frame sets"
+            << (request->apply() ? ", applied," : "") << " requested by " << context->peer();
   // Finished from the pipeline's threads: the fit takes seconds, which must not hold a gRPC
   // callback thread.
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  pipeline_.fitBody(frame_sets, [reactor, response](const FitBodyResult& result) {
+  pipeline_.fitBody(frame_sets, request->apply(), [reactor, response](const FitBodyResult& result) {
     if (result.error == BodyFitError::kNone)
       bodyFitToProto(result, *response);
     else

@@ -55,7 +55,7 @@ class MocapServiceImpl final : public v1::MocapService::CallbackService {
                                           const grpc::Status& status);
 
   const ServerConfig& config_;
-  const BodyModel& model_;
+  const BodyModel& model_;  // as configured (a fitted body applied since has its joint names)
   Pipeline& pipeline_;
   PosePublisher& publisher_;
   const int64_t started_ns_;

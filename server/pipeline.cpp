@@ -74,6 +74,7 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
                              : Handoff<MaskSet>::Mode::kLatestWins),
       poses_(config.replay() ? Handoff<std::shared_ptr<Pose>>::Mode::kLossless
                              : Handoff<std::shared_ptr<Pose>>::Mode::kLatestWins),
+      can_acquire_(canAcquire(model)),
       kinematics_(model),
       reference_kinematics_(reference_model_ ? *reference_model_ : model) {
   if (cameras_.empty()) throw std::invalid_argument("no cameras");
@@ -136,41 +137,74 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   synchronizer_ = std::move(created.value());
 
   pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
-  const FilterOptions options = config.tracker.filterOptions();
-  auto makeTrackerFilter = [this, options] {
-    return makeFilter(config_.tracker.method, model_, rig_, options, *pool_);
-  };
-  // A body that can be placed is tracked through an acquiring filter, so it can be found again
-  // on request or once lost, and each pose carries its silhouette fit; from a known pose that
-  // filter tracks as the plain one.
-  if (canAcquire(model_)) {
-    AcquiringOptions acquiring_options;
-    acquiring_options.lost_below = config.tracker.lost_below;
-    acquiring_options.lost_after = config.tracker.lost_after;
-    auto acquiring =
-        std::make_unique<AcquiringFilter>(model_, rig_, acquisitionStances(model_),
-                                          options.likelihood, makeTrackerFilter, acquiring_options);
-    acquiring_ = acquiring.get();
-    filter_ = std::move(acquiring);
-  } else {
-    filter_ = makeTrackerFilter();
-  }
-  // Live, a step's refinement gives way to a newer frame set rather than have it wait or be
-  // dropped. Replay queues every set, so it never yields and stays repeatable.
-  if (!config.replay()) filter_->setYield([this] { return masks_.waiting(); });
+  body_ = {std::make_shared<const BodyModel>(model), 0};
+  applied_body_ = body_;
+  makeTrackerFilter();
   if (inputs.acquire) {
     if (!acquiring_) throw std::invalid_argument("tracker.start: the body's root cannot be placed");
     tracking_ = false;
   } else {
-    filter_->reset(inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
-                       ? inputs.initial_pose
-                       : model_.neutralPose());
+    last_pose_ = inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
+                     ? inputs.initial_pose
+                     : model_.neutralPose();
+    filter_->reset(last_pose_);
   }
+}
+
+void Pipeline::makeTrackerFilter() {
+  const FilterOptions options = config_.tracker.filterOptions();
+  auto make = [this, options, body = body_.model] {
+    return makeFilter(config_.tracker.method, *body, rig_, options, *pool_);
+  };
+  // A body that can be placed is tracked through an acquiring filter, so it can be found again
+  // on request or once lost, and each pose carries its silhouette fit; from a known pose that
+  // filter tracks as the plain one.
+  acquiring_ = nullptr;
+  if (can_acquire_) {
+    AcquiringOptions acquiring_options;
+    acquiring_options.lost_below = config_.tracker.lost_below;
+    acquiring_options.lost_after = config_.tracker.lost_after;
+    const BodyModel& body = *body_.model;
+    auto acquiring = std::make_unique<AcquiringFilter>(body, rig_, acquisitionStances(body),
+                                                       options.likelihood, make, acquiring_options);
+    acquiring_ = acquiring.get();
+    filter_ = std::move(acquiring);
+  } else {
+    filter_ = make();
+  }
+  // Live, a step's refinement gives way to a newer frame set rather than have it wait or be
+  // dropped. Replay queues every set, so it never yields and stays repeatable.
+  if (!config_.replay()) filter_->setYield([this] { return masks_.waiting(); });
+}
+
+void Pipeline::switchToAppliedBody() {
+  TrackedBody applied;
+  {
+    std::lock_guard lock(body_mutex_);
+    applied = applied_body_;
+  }
+  if (applied.version == body_.version) return;
+  if (acquiring_) {
+    earlier_acquisitions_ += acquiring_->acquisitions();
+    earlier_losses_ += acquiring_->losses();
+  }
+  filter_.reset();  // before the body it borrows
+  body_ = std::move(applied);
+  makeTrackerFilter();
+  // The DOFs mean the same on the fitted body: tracking goes on from the pose; a tracker that was
+  // searching searches again.
+  if (last_pose_.size() > 0) filter_->reset(last_pose_);
+  logInfo() << "tracking with the fitted body (body version " << body_.version << ")";
+}
+
+TrackedBody Pipeline::trackedBody() const {
+  std::lock_guard lock(body_mutex_);
+  return applied_body_;
 }
 
 Pipeline::ReacquireError Pipeline::reacquire() {
   if (config_.replay()) return ReacquireError::kReplay;
-  if (!acquiring_) return ReacquireError::kCannotPlace;
+  if (!can_acquire_) return ReacquireError::kCannotPlace;
   reacquire_requested_ = true;
   return ReacquireError::kNone;
 }
@@ -378,7 +412,7 @@ void Pipeline::captureBackground(int frames, std::function<void(const Background
   capture_request_ = std::move(capture);
 }
 
-void Pipeline::fitBody(int frame_sets, std::function<void(const FitBodyResult&)> done) {
+void Pipeline::fitBody(int frame_sets, bool apply, std::function<void(const FitBodyResult&)> done) {
   const BodyModel& model = fitModel();
   if (!model.fit_pose) {
     done(fitFailure(BodyFitError::kCannotFit,
@@ -391,26 +425,45 @@ void Pipeline::fitBody(int frame_sets, std::function<void(const FitBodyResult&)>
     done(fitFailure(BodyFitError::kCannotFit, whyCannotAcquire(model)));
     return;
   }
+  if (apply && config_.replay()) {
+    done(fitFailure(BodyFitError::kCannotApply,
+                    "apply: a replay tracks the session's body (its poses depend on the recording "
+                    "alone); fit without apply"));
+    return;
+  }
   auto collection = std::make_unique<BodyFitCollection>();
   collection->frame_sets = std::max(frame_sets, 1);
+  collection->apply = apply;
   collection->every = std::max(
       1, static_cast<int>(std::lround(kFitSetIntervalSeconds * cameras_.front().config.fps)));
   collection->done = std::move(done);
   collection->last_progress_ns = monotonicNowNs();
-  std::unique_lock lock(capture_mutex_);
-  if (!accepting_captures_) {
-    lock.unlock();
-    collection->done(fitFailure(BodyFitError::kStopped, "the pipeline is not running"));
-    return;
+  FitBodyResult refusal;
+  {
+    std::lock_guard session(session_body_mutex_);
+    bool recording = false;
+    if (apply) {
+      std::lock_guard lock(recording_mutex_);
+      recording = recorder_ != nullptr;
+    }
+    std::lock_guard lock(capture_mutex_);
+    if (!accepting_captures_) {
+      refusal = fitFailure(BodyFitError::kStopped, "the pipeline is not running");
+    } else if (fit_busy_) {
+      refusal =
+          fitFailure(BodyFitError::kBusy, "a body fit is already under way; wait for its answer");
+    } else if (recording) {
+      refusal = fitFailure(BodyFitError::kCannotApply,
+                           "apply: a recording is open, and a session stores one body; stop it "
+                           "first, or fit without apply");
+    } else {
+      fit_busy_ = true;
+      fit_applies_ = apply;
+      fit_request_ = std::move(collection);
+      return;
+    }
   }
-  if (fit_busy_) {
-    lock.unlock();
-    collection->done(
-        fitFailure(BodyFitError::kBusy, "a body fit is already under way; wait for its answer"));
-    return;
-  }
-  fit_busy_ = true;
-  fit_request_ = std::move(collection);
+  collection->done(refusal);
 }
 
 bool Pipeline::collectForFit(BodyFitCollection& collection,
@@ -456,6 +509,16 @@ void Pipeline::runBodyFit(BodyFitCollection collection) {
       result.frame_sets_used = static_cast<int>(fit->poses.size());
       result.fit = *fit;
       result.body = proportionedBodyModel(model, fit->proportions);
+      if (collection.apply) {
+        // On the tracked body as configured (gait's frozen DOFs stay frozen), so fits do not
+        // compound.
+        auto applied =
+            std::make_shared<const BodyModel>(proportionedBodyModel(model_, fit->proportions));
+        std::lock_guard lock(body_mutex_);
+        applied_body_ = {std::move(applied), applied_body_.version + 1};
+        result.body_version = applied_body_.version;
+        body_switch_pending_ = true;
+      }
     } else {
       result.error = BodyFitError::kNoSubject;
       result.message = "no subject found standing in the fit pose: " + why_not;
@@ -484,6 +547,7 @@ void Pipeline::endBodyFit(const std::function<void(const FitBodyResult&)>& done,
   {
     std::lock_guard lock(capture_mutex_);
     fit_busy_ = false;
+    fit_applies_ = false;
   }
   done(result);
 }
@@ -764,22 +828,29 @@ void Pipeline::trackerLoop() {
       if (masks_.closed()) break;
       continue;
     }
+    if (body_switch_pending_.exchange(false)) switchToAppliedBody();
     if (reacquire_requested_.exchange(false)) acquiring_->reacquire();
     const FrameEstimate estimate = filter_->step(masks->masks);
     if (acquiring_) {
-      acquisitions_ = static_cast<uint64_t>(acquiring_->acquisitions());
-      losses_ = static_cast<uint64_t>(acquiring_->losses());
+      acquisitions_ = static_cast<uint64_t>(earlier_acquisitions_ + acquiring_->acquisitions());
+      losses_ = static_cast<uint64_t>(earlier_losses_ + acquiring_->losses());
       std::lock_guard lock(search_mutex_);
       search_failure_ = acquiring_->lastFailure();
     }
     tracking_ = estimate.found;
-    if (!estimate.found) continue;  // no subject in view: nothing to publish
-    forwardKinematics(model_, kinematics_, estimate.q);
+    if (!estimate.found) {  // no subject in view: nothing to publish
+      last_pose_.resize(0);
+      continue;
+    }
+    last_pose_ = estimate.q;
+    const BodyModel& body = *body_.model;
+    forwardKinematics(body, kinematics_, estimate.q);
     auto pose = std::make_shared<Pose>();
     pose->frame_sequence = masks->sequence;
     pose->capture_monotonic_ns = masks->timestamp_ns;
-    pose->points = pointPositions(model_, kinematics_);
-    pose->orientations.reserve(model_.segments.size());
+    pose->body_version = body_.version;
+    pose->points = pointPositions(body, kinematics_);
+    pose->orientations.reserve(body.segments.size());
     for (const Eigen::Isometry3d& world : kinematics_.world)
       pose->orientations.emplace_back(world.rotation());
     pose->dofs = estimate.q;
@@ -857,6 +928,16 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   if (!inside.ok()) return {RecordingError::kOutsideRoot, inside.error(), {}};
   if (std::filesystem::exists(inside.value()))
     return {RecordingError::kBusy, "session " + relative_path + " already exists", {}};
+  std::lock_guard session(session_body_mutex_);
+  {
+    std::lock_guard lock(capture_mutex_);
+    if (fit_applies_) {
+      return {RecordingError::kBusy,
+              "a body fit that will change the tracked body is under way (FitBody with apply); "
+              "record once it has answered",
+              {}};
+    }
+  }
 
   std::vector<SessionCamera> cameras;
   std::vector<std::shared_ptr<const BackgroundModel>> backgrounds;
@@ -882,8 +963,9 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   std::vector<std::string> truth_dofs;
   if (reference_pose_)
     for (const Dof& dof : model_.dofs) truth_dofs.push_back(dof.name);
-  const Status opened = recorder->open(
-      requested, rig_, cameras, {&model_, config_.tracker.keyValues(), truth_dofs});
+  const TrackedBody body = trackedBody();
+  const Status opened = recorder->open(requested, rig_, cameras,
+                                       {body.model.get(), config_.tracker.keyValues(), truth_dofs});
   if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
   std::lock_guard lock(recording_mutex_);
   if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};

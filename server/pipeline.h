@@ -145,9 +145,19 @@ struct BackgroundResult {
 };
 
 // Why a body fit failed, so the service can pick the gRPC code. kCannotFit: the body has no
-// fit_pose or its root cannot be placed; kNoSubject: none found in the frame sets; kStalled:
-// no frame set with silhouettes from every camera for a while; kFailed: the fit threw.
-enum class BodyFitError { kNone, kCannotFit, kBusy, kNoSubject, kStalled, kStopped, kFailed };
+// fit_pose or its root cannot be placed; kCannotApply: asked to apply it in a replay or while a
+// recording is open; kNoSubject: none found in the frame sets; kStalled: no frame set with
+// silhouettes from every camera for a while; kFailed: the fit threw.
+enum class BodyFitError {
+  kNone,
+  kCannotFit,
+  kCannotApply,
+  kBusy,
+  kNoSubject,
+  kStalled,
+  kStopped,
+  kFailed
+};
 struct FitBodyResult {
   BodyFitError error = BodyFitError::kNone;
   std::string message;
@@ -155,11 +165,19 @@ struct FitBodyResult {
   BodyFit fit;              // without an error
   BodyModel body;           // the fitted body: the fitted model with fit.proportions
   double fit_seconds = 0;   // the fit itself, after the frame sets were collected
+  uint32_t body_version = 0;  // applied: the version the tracker tracks it as; else 0
+};
+
+// The body the tracker tracks: the configured one (version 0), or the latest fitted one applied.
+struct TrackedBody {
+  std::shared_ptr<const BodyModel> model;
+  uint32_t version = 0;
 };
 
 class Pipeline {
  public:
-  // The model, rig and publisher are borrowed and must outlive the pipeline. Throws
+  // The model, rig and publisher are borrowed and must outlive the pipeline; `model` is the
+  // configured body (trackedBody() may be a fitted one since). Throws
   // std::invalid_argument if the rig does not match the cameras or the tracker settings are
   // unusable.
   Pipeline(const ServerConfig& config, const BodyModel& model, const Rig& rig,
@@ -208,7 +226,13 @@ class Pipeline {
   // refusal (no fit pose, a root that cannot be placed, a fit under way, the pipeline not running),
   // on the mask thread when no set came for a while or the pipeline stops, else on the fit thread.
   // It must not block. stop() ends a fit under way at its next frame set's search.
-  void fitBody(int frame_sets, std::function<void(const FitBodyResult&)> done);
+  //
+  // With `apply`, the fitted proportions are applied to the configured tracked body and the tracker
+  // switches to it at its next frame set, going on from its pose (refused in a replay, whose poses
+  // depend on the session alone, and while a recording is open, which stores one body;
+  // startRecording is refused until such a fit has answered).
+  void fitBody(int frame_sets, bool apply, std::function<void(const FitBodyResult&)> done);
+  TrackedBody trackedBody() const;
 
   // Why reacquire() was refused, so the service can pick the gRPC code.
   enum class ReacquireError { kNone, kReplay, kCannotPlace };
@@ -238,6 +262,7 @@ class Pipeline {
   };
   struct BodyFitCollection {
     int frame_sets = 0;
+    bool apply = false;
     int every = 1;  // one set kept out of this many handed to the tracker
     int seen = 0;
     std::function<void(const FitBodyResult&)> done;
@@ -267,6 +292,11 @@ class Pipeline {
   void endBodyFit(const std::function<void(const FitBodyResult&)>& done,
                   const FitBodyResult& result);
   const BodyModel& fitModel() const { return fit_model_ ? *fit_model_ : model_; }
+  // Tracker thread: (re)creates filter_ for body_ (an acquiring filter for a body that can be
+  // placed).
+  void makeTrackerFilter();
+  // Tracker thread: tracks with the body applied since the last frame set, from the pose it has.
+  void switchToAppliedBody();
   // Constructor: loads what background_directory holds for each camera.
   void loadBackgrounds();
   // Mask thread (or the constructor): camera's silhouettes are extracted against `background`
@@ -289,7 +319,7 @@ class Pipeline {
   RecordingStatus recordingStatusLocked() const;
 
   const ServerConfig config_;
-  const BodyModel& model_;
+  const BodyModel& model_;  // as configured: the subject's body without a reference_model_
   const Rig& rig_;
   std::vector<OpenedCamera> cameras_;
   std::shared_ptr<const SessionReader> replay_;
@@ -304,10 +334,20 @@ class Pipeline {
   std::function<void(const Pose&)> observer_;
   MaskObserver mask_observer_;
 
+  // The latest body applied by a fit, for trackedBody() and the next recording, and whether the
+  // tracker has yet to switch to it.
+  mutable std::mutex body_mutex_;
+  TrackedBody applied_body_;
+  std::atomic<bool> body_switch_pending_{false};
+  const bool can_acquire_;  // the configured body's root can be placed (fitted ones alike)
+
   // Tracker thread only, after construction.
   std::unique_ptr<WorkerPool> pool_;
+  TrackedBody body_;  // the body tracked
   std::unique_ptr<PoseFilter> filter_;
   AcquiringFilter* acquiring_ = nullptr;  // filter_ itself when the body can be placed
+  int earlier_acquisitions_ = 0, earlier_losses_ = 0;  // of the filters of earlier bodies
+  Eigen::VectorXd last_pose_;  // the latest estimate found, empty before the first
   KinematicsData kinematics_;
   KinematicsData reference_kinematics_;
 
@@ -344,7 +384,11 @@ class Pipeline {
   bool capture_busy_ = false;        // requested or under way
   bool accepting_captures_ = false;  // while the mask thread runs (captures and fits alike)
   std::unique_ptr<BodyFitCollection> fit_request_;
-  bool fit_busy_ = false;  // requested, collecting or fitting
+  bool fit_busy_ = false;     // requested, collecting or fitting
+  bool fit_applies_ = false;  // that fit will apply its body: no recording may start
+  // Held by fitBody's check that no recording is open and by startRecording throughout, so a
+  // recording never opens with one body while the tracker switches to another.
+  std::mutex session_body_mutex_;
   // Mask thread only: per camera, null until a background is captured; in replay, per camera, the
   // index of the first of the session's backgrounds() not installed yet.
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;

@@ -16,6 +16,7 @@ struct Pose {
   int64_t capture_monotonic_ns = 0;  // the frame set's timestamp
   int64_t capture_wall_ns = 0;       // the same instant in Unix time
   int64_t publish_monotonic_ns = 0;  // when the publisher took it
+  uint32_t body_version = 0;         // of the body tracked (Pipeline::trackedBody)
   std::vector<Eigen::Vector3d> points;           // BodyModel::points order, world, metres
   std::vector<Eigen::Quaterniond> orientations;  // per segment, world
   Eigen::VectorXd dofs;

@@ -42,6 +42,7 @@ void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int
   out.set_spread(pose.spread);
   if (pose.reference_error_mm) out.set_reference_error_mm(*pose.reference_error_mm);
   if (pose.silhouette_fit) out.set_silhouette_fit(*pose.silhouette_fit);
+  out.set_body_version(pose.body_version);
   out.set_missed_before(missed_before);
 }
 
@@ -123,6 +124,7 @@ void cameraStatusToProto(const OpenedCamera& camera, const CameraRuntimeStatus& 
 void bodyFitToProto(const FitBodyResult& result, v1::FitBodyResponse& out) {
   out.Clear();
   out.set_body_model_yaml(formatBodyModel(result.body));
+  out.set_body_version(result.body_version);
   for (int k = 0; k < BodyProportions::kCount; ++k) {
     v1::BodyProportion* proportion = out.add_proportions();
     proportion->set_name(BodyProportions::name(k));

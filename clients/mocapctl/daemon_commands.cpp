@@ -277,8 +277,10 @@ int runFitBody(int argc, char** argv) {
   std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
   const std::string frames_text = takeFlag(args, "--frames");
   const std::string out_path = takeFlag(args, "--out");
+  const bool apply = takeSwitch(args, "--apply");
   noMoreArguments(args);
   mocap::v1::FitBodyRequest request;
+  request.set_apply(apply);
   if (!frames_text.empty())
     request.set_frame_sets(static_cast<int32_t>(positiveNumber("--frames", frames_text)));
   DaemonClient client(flags);
@@ -296,6 +298,7 @@ int runFitBody(int argc, char** argv) {
                                 {"log_likelihood", response.log_likelihood()},
                                 {"evaluations", response.evaluations()},
                                 {"fit_seconds", response.fit_seconds()}};
+  if (apply) out["body_version"] = response.body_version();
   for (const mocap::v1::BodyProportion& proportion : response.proportions())
     out["proportions"][proportion.name()] = proportion.factor();
   if (!out_path.empty()) {

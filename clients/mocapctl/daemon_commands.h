@@ -18,13 +18,15 @@ inline constexpr const char* kBackgroundUsage =
     "background [--frames N]  learn the empty scene (nobody in view) as every camera's background\n"
     "                         from its next N frames (default 25): silhouettes are then extracted";
 inline constexpr const char* kFitBodyUsage =
-    "fit-body [--frames N] [--out FILE]   fit the body model to the subject, who stands in its\n"
+    "fit-body [--frames N] [--out FILE] [--apply]\n"
+    "                         fit the body model to the subject, who stands in its\n"
     "                         fit pose (the human's: arms 45 degrees out), turning in place,\n"
     "                         from N frame sets half a second apart (default 5, at most 250);\n"
     "                         prints the proportions, the scale and the sets used as JSON and\n"
     "                         writes the fitted body model (YAML, for body_model:) to FILE,\n"
     "                         replacing it atomically; without --out prints that YAML instead,\n"
-    "                         the figures as comments at its top";
+    "                         the figures as comments at its top; --apply: the daemon also\n"
+    "                         tracks with it from then on (until it restarts)";
 inline constexpr const char* kBvhUsage =
     "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
 inline constexpr const char* kBenchUsage =

@@ -13,8 +13,8 @@ As a library:
 As a command:
     mocap_client.py stream [--count N] [--joints a,b]   JSON lines, one pose a line
     mocap_client.py status | skeleton | health | reacquire | background [--frames N]
-    mocap_client.py fit-body [--frames N]   the fitted body model (YAML) on stdout, the figures
-                                            as comments at its top
+    mocap_client.py fit-body [--frames N] [--apply]   the fitted body model (YAML) on stdout,
+                                            the figures as comments at its top
 """
 
 import argparse
@@ -102,12 +102,13 @@ class MocapClient:
         return self._stub.CaptureBackground(request, metadata=self._metadata,
                                             timeout=60 + max(frames, 25))
 
-    def fit_body(self, frame_sets=0):
+    def fit_body(self, frame_sets=0, apply=False):
         """Fits the body model to the subject, who stands in its fit pose turning slowly in place,
-        from `frame_sets` frame sets half a second apart (0: the daemon's default, 5); returns the
-        FitBodyResponse (the fitted body model as YAML in body_model_yaml, the proportions, the
-        scale, the sets used)."""
-        request = self.pb.FitBodyRequest(frame_sets=frame_sets)
+        from `frame_sets` frame sets half a second apart (0: the daemon's default, 5); with
+        `apply` the daemon tracks with the fitted body from then on. Returns the FitBodyResponse
+        (the fitted body model as YAML in body_model_yaml, the proportions, the scale, the sets
+        used, the body_version it is tracked as when applied)."""
+        request = self.pb.FitBodyRequest(frame_sets=frame_sets, apply=apply)
         return self._stub.FitBody(request, metadata=self._metadata,
                                   timeout=60 + 3 * max(frame_sets, 5))
 
@@ -136,6 +137,7 @@ def pose_to_dict(pose):
         "score": pose.score,
         "spread": pose.spread,
         "missed_before": pose.missed_before,
+        "body_version": pose.body_version,
     }
     for optional in ("silhouette_fit", "reference_error_mm"):
         if pose.HasField(optional):
@@ -158,6 +160,8 @@ def main():
     parser.add_argument("--frames", type=int, default=0,
                         help="background: frames per camera to learn from (0: the daemon's 25); "
                         "fit-body: frame sets to fit from (0: the daemon's 5)")
+    parser.add_argument("--apply", action="store_true",
+                        help="fit-body: the daemon also tracks with the fitted body from then on")
     args = parser.parse_args()
 
     client = MocapClient(args.server, args.token, args.tls_ca, args.stubs, args.tls_cert,
@@ -185,10 +189,12 @@ def main():
             print(json.dumps({"frames_used": learned.frames_used,
                               "warnings": list(learned.warnings)}))
         elif args.command == "fit-body":
-            fitted = client.fit_body(args.frames)
+            fitted = client.fit_body(args.frames, args.apply)
             summary = {"frame_sets_used": fitted.frame_sets_used,
                        "proportions": {p.name: p.factor for p in fitted.proportions},
                        "scale": fitted.scale, "fit_seconds": fitted.fit_seconds}
+            if args.apply:
+                summary["body_version"] = fitted.body_version
             for line in json.dumps(summary, indent=1).splitlines():
                 print("# " + line)
             sys.stdout.write(fitted.body_model_yaml)

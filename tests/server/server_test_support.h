@@ -40,14 +40,16 @@ inline grpc::Status captureBackground(v1::MocapService::Stub& stub, uint32_t fra
   return stub.CaptureBackground(&context, request, &response);
 }
 
-// Asks the daemon to fit the body from `frame_sets` frame sets, waiting at most `deadline`.
+// Asks the daemon to fit the body from `frame_sets` frame sets (and to track with it, with
+// `apply`), waiting at most `deadline`.
 inline grpc::Status fitBody(v1::MocapService::Stub& stub, int frame_sets,
-                            v1::FitBodyResponse& response,
+                            v1::FitBodyResponse& response, bool apply = false,
                             std::chrono::seconds deadline = std::chrono::seconds(60)) {
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + deadline);
   v1::FitBodyRequest request;
   request.set_frame_sets(frame_sets);
+  request.set_apply(apply);
   return stub.FitBody(&context, request, &response);
 }
 
