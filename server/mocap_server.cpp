@@ -152,6 +152,11 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
         return Status::Error(std::string("replay: ") + e.what());
       }
     }
+    // The truth's joints on the body it is of (the scene's subject tracked with another body, or
+    // the session's when the configuration names another to track).
+    const BodyModel* truth_body = session->truthBodyModel();
+    if (truth_body && truth_body->dofs.size() == server->model_->dofs.size())
+      inputs.reference_model = std::make_shared<const BodyModel>(*truth_body);
     inputs.replay = std::move(session);
   } else {
     bool any_fake = false, all_fake = true;

@@ -139,7 +139,7 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
   body_ = {std::make_shared<const BodyModel>(model), 0};
   applied_body_ = body_;
-  makeTrackerFilter();
+  makeTrackerFilter(false);
   if (inputs.acquire) {
     if (!acquiring_) throw std::invalid_argument("tracker.start: the body's root cannot be placed");
     tracking_ = false;
@@ -151,7 +151,7 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   }
 }
 
-void Pipeline::makeTrackerFilter() {
+void Pipeline::makeTrackerFilter(bool in_fit_pose) {
   const FilterOptions options = config_.tracker.filterOptions();
   auto make = [this, options, body = body_.model] {
     return makeFilter(config_.tracker.method, *body, rig_, options, *pool_);
@@ -165,7 +165,9 @@ void Pipeline::makeTrackerFilter() {
     acquiring_options.lost_below = config_.tracker.lost_below;
     acquiring_options.lost_after = config_.tracker.lost_after;
     const BodyModel& body = *body_.model;
-    auto acquiring = std::make_unique<AcquiringFilter>(body, rig_, acquisitionStances(body),
+    std::vector<Eigen::VectorXd> stances = acquisitionStances(body);
+    if (in_fit_pose && body.fit_pose) stances.push_back(body.stancePose(*body.fit_pose));
+    auto acquiring = std::make_unique<AcquiringFilter>(body, rig_, std::move(stances),
                                                        options.likelihood, make, acquiring_options);
     acquiring_ = acquiring.get();
     filter_ = std::move(acquiring);
@@ -190,10 +192,12 @@ void Pipeline::switchToAppliedBody() {
   }
   filter_.reset();  // before the body it borrows
   body_ = std::move(applied);
-  makeTrackerFilter();
-  // The DOFs mean the same on the fitted body: tracking goes on from the pose; a tracker that was
-  // searching searches again.
-  if (last_pose_.size() > 0) filter_->reset(last_pose_);
+  // The tracker finds the subject anew, as a daemon started with the fitted body would, the fit
+  // pose among its stances: the subject stands in it until the fit answers. The pose tracked with
+  // the old body is no start: it fits the new body badly, and its heading was 60-110 degrees off
+  // on the fake scene's subject (see docs/service.md).
+  makeTrackerFilter(true);
+  if (!acquiring_ && last_pose_.size() > 0) filter_->reset(last_pose_);
   logInfo() << "tracking with the fitted body (body version " << body_.version << ")";
 }
 
@@ -960,12 +964,20 @@ RecordingResult Pipeline::startRecording(const std::string& relative_path) {
   }
   // Opening writes files: done outside the lock so the mask thread never waits on the disk.
   auto recorder = std::make_unique<Recorder>(config_.recording_directory);
-  std::vector<std::string> truth_dofs;
-  if (reference_pose_)
-    for (const Dof& dof : model_.dofs) truth_dofs.push_back(dof.name);
+  SessionTracking tracking;
   const TrackedBody body = trackedBody();
-  const Status opened = recorder->open(requested, rig_, cameras,
-                                       {body.model.get(), config_.tracker.keyValues(), truth_dofs});
+  tracking.body = body.model.get();
+  tracking.tracker_settings = config_.tracker.keyValues();
+  if (reference_pose_) {
+    for (const Dof& dof : model_.dofs) tracking.truth_dofs.push_back(dof.name);
+    // The truth is of the subject's own body when it has one, else of the configured body, which
+    // a fitted body applied since is not.
+    if (reference_model_)
+      tracking.truth_body = reference_model_.get();
+    else if (body.version > 0)
+      tracking.truth_body = &model_;
+  }
+  const Status opened = recorder->open(requested, rig_, cameras, tracking);
   if (!opened.ok()) return {RecordingError::kIo, opened.message(), {}};
   std::lock_guard lock(recording_mutex_);
   if (recorder_) return {RecordingError::kBusy, "already recording to " + recording_path_, {}};

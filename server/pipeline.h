@@ -293,9 +293,10 @@ class Pipeline {
                   const FitBodyResult& result);
   const BodyModel& fitModel() const { return fit_model_ ? *fit_model_ : model_; }
   // Tracker thread: (re)creates filter_ for body_ (an acquiring filter for a body that can be
-  // placed).
-  void makeTrackerFilter();
-  // Tracker thread: tracks with the body applied since the last frame set, from the pose it has.
+  // placed, which searches the body's stances and, `in_fit_pose`, its fit pose).
+  void makeTrackerFilter(bool in_fit_pose);
+  // Tracker thread: tracks with the body applied since the last frame set, finding the subject
+  // anew in the fit pose they stand in (see fitBody).
   void switchToAppliedBody();
   // Constructor: loads what background_directory holds for each camera.
   void loadBackgrounds();

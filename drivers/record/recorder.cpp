@@ -131,6 +131,7 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   manifest.start_monotonic_ns = monotonicNowNs();
   manifest.calibration_file = rig.empty() ? "" : kCalibrationFile;
   manifest.body_model_file = tracking.body ? kBodyModelFile : "";
+  manifest.truth_body_model_file = tracking.truth_body ? kTruthBodyModelFile : "";
   manifest.tracker_settings = tracking.tracker_settings;
   manifest.cameras = cameras;
   if (!rig.empty()) {
@@ -140,9 +141,10 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
       return Status::Error(std::string("recorder: ") + e.what());
     }
   }
-  if (tracking.body) {
-    if (Status status = writeFileAtomically(session / kBodyModelFile, formatBodyModel(*tracking.body));
-        !status.ok())
+  for (const auto& [body, file] : {std::pair{tracking.body, kBodyModelFile},
+                                   std::pair{tracking.truth_body, kTruthBodyModelFile}}) {
+    if (!body) continue;
+    if (Status status = writeFileAtomically(session / file, formatBodyModel(*body)); !status.ok())
       return Status::Error("recorder: " + status.message());
   }
   files_.assign(cameras.size(), CameraFiles{});

@@ -54,6 +54,9 @@ struct RecorderStats {
 // What the session was tracked with while it was recorded.
 struct SessionTracking {
   const BodyModel* body = nullptr;  // stored as body.yaml; nullptr: none
+  // With truth_dofs: the body the true poses are of, when not `body` (same DOFs); stored as
+  // truth_body.yaml. nullptr: `body`.
+  const BodyModel* truth_body = nullptr;
   std::vector<std::pair<std::string, std::string>> tracker_settings;  // the manifest's `tracker:`
   // The DOF names of the true poses write() is given, in order (truth.csv's columns); empty: the
   // source does not know the truth, no truth.csv.

@@ -170,6 +170,8 @@ std::string emitManifest(const SessionManifest& m) {
   out << YAML::Key << "start_monotonic_ns" << YAML::Value << m.start_monotonic_ns;
   out << YAML::Key << "calibration" << YAML::Value << m.calibration_file;
   if (!m.body_model_file.empty()) out << YAML::Key << "body_model" << YAML::Value << m.body_model_file;
+  if (!m.truth_body_model_file.empty())
+    out << YAML::Key << "truth_body_model" << YAML::Value << m.truth_body_model_file;
   if (!m.tracker_settings.empty()) {
     out << YAML::Key << "tracker" << YAML::Value << YAML::BeginMap;
     for (const auto& [key, value] : m.tracker_settings) out << YAML::Key << key << YAML::Value << value;
@@ -228,6 +230,16 @@ Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std:
     if (Status s = scalar(root["body_model"], "body_model", m.body_model_file); !s.ok()) return s;
     if (!isPlainFileName(m.body_model_file)) {
       return fail("body_model", "'" + m.body_model_file + "' is not a file name in the session");
+    }
+  }
+  // Optional: only sessions whose truth is of another body than the tracked one have it.
+  if (root["truth_body_model"]) {
+    if (Status s = scalar(root["truth_body_model"], "truth_body_model", m.truth_body_model_file);
+        !s.ok())
+      return s;
+    if (!isPlainFileName(m.truth_body_model_file)) {
+      return fail("truth_body_model",
+                  "'" + m.truth_body_model_file + "' is not a file name in the session");
     }
   }
   // Optional: sessions recorded before the tracker settings were stored have none.

@@ -7,6 +7,8 @@
 //   <session>/calibration.yaml   the rig, OpenCV FileStorage (saveRig); absent if no rig was given
 //   <session>/body.yaml          the body model tracked while recording (formatBodyModel), so a
 //                                replay tracks the same body; absent in sessions without one
+//   <session>/truth_body.yaml    the body truth.csv's poses are of, when it is not body.yaml (the
+//                                fake scene's subject tracked with another body); absent otherwise
 //   <session>/cam<i>/NNNNNN.png  lossless images, numbered consecutively per camera from 000000
 //   <session>/cam<i>/index.csv   one line per stored frame:
 //                                set_sequence,camera_sequence,timestamp_ns,dropped_before,corrupt,file
@@ -24,7 +26,8 @@
 //                                line per committed set whose subject was in view, written after
 //                                its commit line: frame_sequence (camera_sequence of the set's
 //                                first frame) then the true value of each DOF of body.yaml, in its
-//                                order, the header naming them. Absent otherwise.
+//                                order, the header naming them (the subject's joints are those
+//                                DOFs on truth_body.yaml if present). Absent otherwise.
 //
 // Plain PNG and CSV: every image tool, ffmpeg (-i cam0/%06d.png) and spreadsheet reads them.
 #pragma once
@@ -42,6 +45,7 @@ namespace mocap {
 inline constexpr const char* kManifestFile = "manifest.yaml";
 inline constexpr const char* kCalibrationFile = "calibration.yaml";
 inline constexpr const char* kBodyModelFile = "body.yaml";
+inline constexpr const char* kTruthBodyModelFile = "truth_body.yaml";
 inline constexpr const char* kSetsFile = "sets.csv";
 inline constexpr const char* kIndexFile = "index.csv";
 inline constexpr const char* kIndexHeader =
@@ -71,6 +75,8 @@ struct SessionManifest {
   int64_t start_monotonic_ns = 0;
   std::string calibration_file;  // relative to the session; empty: no calibration
   std::string body_model_file;   // relative to the session; empty: no body model (optional key)
+  // The body of the truth's poses when not body_model_file's (optional key `truth_body_model`).
+  std::string truth_body_model_file;
   // The tracker's settings as key and value text, in the daemon configuration's `tracker:` keys;
   // the session format does not interpret them (the daemon does). Empty: none (optional key).
   std::vector<std::pair<std::string, std::string>> tracker_settings;

@@ -169,12 +169,25 @@ Status SessionReader::load(const SessionReadOptions& options) {
     }
   }
 
-  if (!manifest_.body_model_file.empty()) {
+  for (const auto& [file, body] :
+       {std::pair{&manifest_.body_model_file, &body_model_},
+        std::pair{&manifest_.truth_body_model_file, &truth_body_model_}}) {
+    if (file->empty()) continue;
     try {
-      body_model_ = loadBodyModel((dir_ / manifest_.body_model_file).string());
+      *body = loadBodyModel((dir_ / *file).string());
     } catch (const std::exception& e) {
       return Status::Error(e.what());
     }
+  }
+  if (truth_body_model_) {
+    const auto names = [](const BodyModel& body) {
+      std::vector<std::string> out;
+      for (const Dof& dof : body.dofs) out.push_back(dof.name);
+      return out;
+    };
+    if (!body_model_ || names(*truth_body_model_) != names(*body_model_))
+      return Status::Error((dir_ / manifest_.truth_body_model_file).string() +
+                           ": its DOFs are not those of the tracked body (body_model)");
   }
 
   if (Status status = loadBackgrounds(); !status.ok()) return status;

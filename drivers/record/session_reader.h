@@ -58,6 +58,10 @@ class SessionReader {
   const Rig& rig() const { return rig_; }  // empty if the session has no calibration
   // The body model the session was tracked with; nullptr if the session stores none.
   const BodyModel* bodyModel() const { return body_model_ ? &*body_model_ : nullptr; }
+  // The body truth()'s poses are of: truth_body.yaml if the session stores one, else bodyModel().
+  const BodyModel* truthBodyModel() const {
+    return truth_body_model_ ? &*truth_body_model_ : bodyModel();
+  }
   // The tracker settings the session was tracked with (the manifest's `tracker:`); empty if none.
   const std::vector<std::pair<std::string, std::string>>& trackerSettings() const {
     return manifest_.tracker_settings;
@@ -93,6 +97,7 @@ class SessionReader {
   SessionManifest manifest_;
   Rig rig_;
   std::optional<BodyModel> body_model_;
+  std::optional<BodyModel> truth_body_model_;
   std::vector<SessionSet> sets_;
   std::vector<SessionBackground> backgrounds_;
   std::map<uint64_t, Eigen::VectorXd> truth_;

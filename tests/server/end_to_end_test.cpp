@@ -27,6 +27,7 @@
 #include "tracker/body_size.h"
 #include "tracker/builtin_models.h"
 #include "tracker/bvh.h"
+#include "tracker/kinematics.h"
 #include "tracker/retarget.h"
 
 namespace mocap {
@@ -409,10 +410,12 @@ TEST_F(EndToEndTest, CaptureBackgroundLearnsWhilePosesFlow) {
 }
 
 // The poses a replay of `session` publishes, frame sequence and DOF vector (and, if asked, its
-// status at the end; every frame set's silhouettes go to `masks`).
+// status at the end, the poses' errors, the poses whole; every frame set's silhouettes go to
+// `masks`).
 std::vector<std::pair<uint64_t, std::vector<double>>> replay(
     const fs::path& session, PipelineStatus* end_status = nullptr,
-    Pipeline::MaskObserver masks = {}, std::vector<double>* reference_errors = nullptr) {
+    Pipeline::MaskObserver masks = {}, std::vector<double>* reference_errors = nullptr,
+    std::vector<Pose>* published = nullptr) {
   ServerConfig config = test::sceneConfig();
   config.replay_directory = session.string();
   config.as_fast_as_possible = true;
@@ -425,6 +428,7 @@ std::vector<std::pair<uint64_t, std::vector<double>>> replay(
                        std::vector<double>(pose.dofs.data(), pose.dofs.data() + pose.dofs.size()));
     if (reference_errors && pose.reference_error_mm)
       reference_errors->push_back(*pose.reference_error_mm);
+    if (published) published->push_back(pose);
   });
   if (masks) server.value()->pipeline().setMaskObserver(std::move(masks));
   EXPECT_TRUE(server.value()->start().ok());
@@ -852,15 +856,21 @@ TEST_F(EndToEndTest, TracksWithTheFittedBodyOnceAFitIsApplied) {
         << expected.segments[s].name;
   }
 
-  // The poses of the fitted body are nearer the subject's joints. Measured on the same standing,
-  // turning subject: the built-in human (28 % longer arms, 6 % longer legs) ends its limbs off.
+  // The fitted body explains the silhouettes of the same standing, turning subject better than
+  // the built-in human (28 % longer arms, 6 % longer legs) could. The joints' error is printed, not
+  // asserted: an A-pose seen by two cameras looks much the same from behind, and a tracker that
+  // takes the subject facing the other way is about 400 mm off with silhouettes just as well
+  // explained (docs/service.md).
   const std::vector<v1::Pose> after = readPoses(*stub, 50, ofVersion(1));
   ASSERT_EQ(after.size(), 50u);
-  const double before_mm = median(before, &v1::Pose::reference_error_mm);
-  const double after_mm = median(after, &v1::Pose::reference_error_mm);
-  std::printf("median error in the fit pose: configured body %.1f mm, fitted %.1f mm\n", before_mm,
-              after_mm);
-  EXPECT_LT(after_mm, 0.6 * before_mm);
+  const double before_fit = median(before, &v1::Pose::silhouette_fit);
+  const double after_fit = median(after, &v1::Pose::silhouette_fit);
+  std::printf(
+      "in the fit pose, median silhouette fit / error: configured body %.3f / %.1f mm, "
+      "fitted %.3f / %.1f mm\n",
+      before_fit, median(before, &v1::Pose::reference_error_mm), after_fit,
+      median(after, &v1::Pose::reference_error_mm));
+  EXPECT_GT(after_fit, before_fit + 0.05);
 
   // A recording started now stores the fitted body, so a replay tracks the same one.
   startRecordingWhenReady(*stub, "after");
@@ -1156,6 +1166,60 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   std::printf("replayed poses against the recorded truth: median %.1f mm over %zu\n", error,
               errors.size());
   EXPECT_LT(error, 100.0);
+  fs::remove_all(root);
+}
+
+// A session of a subject tracked with a body not its own (track_subject_body: false) stores the
+// subject's body beside the tracked one, so its replay measures each pose against the subject's
+// joints, as the live daemon did, and not against the truth's DOFs on the tracked body.
+TEST_F(EndToEndTest, ReplayMeasuresTheErrorOnTheSubjectsBody) {
+  const fs::path root = freshDirectory("replay_subject");
+  {
+    ServerConfig config = walkingPersonConfig();
+    config.track_subject_body = false;
+    config.recording_directory = fs::canonical(root).string();
+    std::unique_ptr<MocapServer> server = startServer(config);
+    ASSERT_TRUE(server);
+    auto stub = test::connect(server->port());
+    ASSERT_EQ(readPoses(*stub, 1).size(), 1u);
+    record(*stub, "session", 15);
+  }
+  Expected<std::unique_ptr<SessionReader>> session = SessionReader::open(root / "session");
+  ASSERT_TRUE(session.ok()) << session.error();
+  const BodyModel* tracked = session.value()->bodyModel();
+  const BodyModel* subject = session.value()->truthBodyModel();
+  ASSERT_TRUE(tracked && subject && subject != tracked);
+  std::vector<Eigen::VectorXd> truths;
+  for (const SessionSet& set : session.value()->sets())
+    for (const std::optional<IndexRecord>& frame : set.frames)
+      if (const Eigen::VectorXd* truth =
+              frame ? session.value()->truth(frame->camera_sequence) : nullptr)
+        truths.push_back(*truth);
+  ASSERT_FALSE(truths.empty());
+
+  std::vector<Pose> poses;
+  replay(root / "session", nullptr, {}, nullptr, &poses);
+  ASSERT_FALSE(poses.empty());
+  // The mean distance of a pose's joints from a truth's placed on `body`, in millimetres; the
+  // reported error must be that of some frame's truth on the subject's body, and of none on the
+  // tracked body (whose legs and arms are longer).
+  const auto nearestError = [&](const BodyModel& body, const Pose& pose) {
+    KinematicsData kinematics(body);
+    double nearest = INFINITY;
+    for (const Eigen::VectorXd& truth : truths) {
+      forwardKinematics(body, kinematics, truth);
+      const std::vector<Eigen::Vector3d> joints = pointPositions(body, kinematics);
+      double sum = 0;
+      for (std::size_t p = 0; p < joints.size(); ++p) sum += (joints[p] - pose.points[p]).norm();
+      nearest = std::min(nearest, std::abs(1000 * sum / joints.size() - *pose.reference_error_mm));
+    }
+    return nearest;
+  };
+  for (const Pose& pose : poses) {
+    ASSERT_TRUE(pose.reference_error_mm) << "frame " << pose.frame_sequence;
+    EXPECT_LT(nearestError(*subject, pose), 1e-6) << "frame " << pose.frame_sequence;
+    EXPECT_GT(nearestError(*tracked, pose), 1.0) << "frame " << pose.frame_sequence;
+  }
   fs::remove_all(root);
 }
 

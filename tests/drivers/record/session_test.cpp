@@ -254,6 +254,50 @@ TEST_F(SessionTest, StoresTheBodyModelAndTrackerSettingsItWasTrackedWith) {
   EXPECT_FALSE(fs::exists(without.value()->path() / kBodyModelFile));
 }
 
+// A subject tracked with a body not its own (the fake scene's track_subject_body: false, or a
+// fitted body applied): the truth's poses are of the subject's body, which the session stores
+// beside the tracked one. Without it, the truth is of the tracked body.
+TEST_F(SessionTest, StoresTheBodyTheTruthIsOfWhenNotTheTrackedOne) {
+  const BodyModel tracked_body = builtinHumanModel();
+  const BodyModel subject = scaledBodyModel(tracked_body, 0.9);
+  std::vector<std::string> names;
+  for (const Dof& dof : tracked_body.dofs) names.push_back(dof.name);
+  SessionTracking tracking = tracked(&tracked_body, {}, names);
+  tracking.truth_body = &subject;
+  Recorder recorder(root_);
+  ASSERT_TRUE(recorder.open("subject", rig(), cameras(kPixelGray), tracking).ok());
+  recorder.write(makeSet(0, CV_8UC1), {0, tracked_body.neutralPose()});
+  ASSERT_TRUE(recorder.close().ok());
+  {
+    Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(recorder.sessionPath());
+    ASSERT_TRUE(reader.ok()) << reader.error();
+    ASSERT_NE(reader.value()->truthBodyModel(), nullptr);
+    EXPECT_NEAR(reader.value()->truthBodyModel()->segments[0].offset.z(),
+                subject.segments[0].offset.z(), 1e-9);
+    EXPECT_NEAR(reader.value()->bodyModel()->segments[0].offset.z(),
+                tracked_body.segments[0].offset.z(), 1e-9);
+  }
+
+  // A truth body whose DOFs are not the tracked body's cannot be the truth's.
+  const BodyModel hand = builtinHandModel();
+  std::ofstream(recorder.sessionPath() / kTruthBodyModelFile, std::ios::trunc)
+      << formatBodyModel(hand);
+  EXPECT_THAT(openError(recorder.sessionPath()),
+              HasSubstr("truth_body.yaml: its DOFs are not those of the tracked body"));
+  editManifest(recorder.sessionPath(), "truth_body_model: truth_body.yaml",
+               "truth_body_model: ../truth_body.yaml");
+  EXPECT_THAT(openError(recorder.sessionPath()),
+              HasSubstr("truth_body_model: '../truth_body.yaml' is not a file name"));
+
+  Recorder own(root_);
+  ASSERT_TRUE(own.open("own", rig(), cameras(kPixelGray), tracked(&tracked_body, {}, names)).ok());
+  ASSERT_TRUE(own.close().ok());
+  EXPECT_FALSE(fs::exists(own.sessionPath() / kTruthBodyModelFile));
+  Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(own.sessionPath());
+  ASSERT_TRUE(reader.ok()) << reader.error();
+  EXPECT_EQ(reader.value()->truthBodyModel(), reader.value()->bodyModel());
+}
+
 TEST_F(SessionTest, BadBodyModelIsNamed) {
   const BodyModel body = builtinHandModel();
   Recorder recorder(root_);
