@@ -144,10 +144,9 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
     if (!acquiring_) throw std::invalid_argument("tracker.start: the body's root cannot be placed");
     tracking_ = false;
   } else {
-    last_pose_ = inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
-                     ? inputs.initial_pose
-                     : model_.neutralPose();
-    filter_->reset(last_pose_);
+    filter_->reset(inputs.initial_pose.size() == static_cast<long>(model_.dofs.size())
+                       ? inputs.initial_pose
+                       : model_.neutralPose());
   }
 }
 
@@ -196,8 +195,7 @@ void Pipeline::switchToAppliedBody() {
   // pose among its stances: the subject stands in it until the fit answers. The pose tracked with
   // the old body is no start: it fits the new body badly, and its heading was 60-110 degrees off
   // on the fake scene's subject (see docs/service.md).
-  makeTrackerFilter(true);
-  if (!acquiring_ && last_pose_.size() > 0) filter_->reset(last_pose_);
+  makeTrackerFilter(true);  // acquiring: fitBody fits only bodies that can be placed
   logInfo() << "tracking with the fitted body (body version " << body_.version << ")";
 }
 
@@ -842,11 +840,7 @@ void Pipeline::trackerLoop() {
       search_failure_ = acquiring_->lastFailure();
     }
     tracking_ = estimate.found;
-    if (!estimate.found) {  // no subject in view: nothing to publish
-      last_pose_.resize(0);
-      continue;
-    }
-    last_pose_ = estimate.q;
+    if (!estimate.found) continue;  // no subject in view: nothing to publish
     const BodyModel& body = *body_.model;
     forwardKinematics(body, kinematics_, estimate.q);
     auto pose = std::make_shared<Pose>();

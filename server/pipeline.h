@@ -228,8 +228,8 @@ class Pipeline {
   // It must not block. stop() ends a fit under way at its next frame set's search.
   //
   // With `apply`, the fitted proportions are applied to the configured tracked body and the tracker
-  // switches to it at its next frame set, going on from its pose (refused in a replay, whose poses
-  // depend on the session alone, and while a recording is open, which stores one body;
+  // switches to it at its next frame set, finding the subject anew (refused in a replay, whose
+  // poses depend on the session alone, and while a recording is open, which stores one body;
   // startRecording is refused until such a fit has answered).
   void fitBody(int frame_sets, bool apply, std::function<void(const FitBodyResult&)> done);
   TrackedBody trackedBody() const;
@@ -348,7 +348,6 @@ class Pipeline {
   std::unique_ptr<PoseFilter> filter_;
   AcquiringFilter* acquiring_ = nullptr;  // filter_ itself when the body can be placed
   int earlier_acquisitions_ = 0, earlier_losses_ = 0;  // of the filters of earlier bodies
-  Eigen::VectorXd last_pose_;  // the latest estimate found, empty before the first
   KinematicsData kinematics_;
   KinematicsData reference_kinematics_;
 
