@@ -792,10 +792,11 @@ TEST_F(EndToEndTest, FitsTheBodyToThePersonStandingInTheFitPose) {
   EXPECT_THAT(stopped.error_message(), ::testing::HasSubstr("of 250 frame sets"));
 }
 
-// FitBody with apply: the tracker goes on with the fitted body, from its pose. The skeleton and the
-// poses say which body they are of, the error against the subject falls, and a recording started
-// afterwards stores the fitted body. A fit cannot be applied while a recording is open, nor a
-// recording start while such a fit runs: a session stores one body.
+// FitBody with apply: the tracker finds the subject anew with the fitted body. The skeleton and the
+// poses say which body they are of, the silhouettes are explained better, and a recording started
+// afterwards stores the fitted body (and the subject's, which the truth is of). A fit cannot be
+// applied while a recording is open, nor a recording start while such a fit runs: a session stores
+// one tracked body.
 TEST_F(EndToEndTest, TracksWithTheFittedBodyOnceAFitIsApplied) {
   ServerConfig config = walkingPersonConfig();
   config.track_subject_body = false;
@@ -879,6 +880,7 @@ TEST_F(EndToEndTest, TracksWithTheFittedBodyOnceAFitIsApplied) {
   ASSERT_EQ(stored.segments.size(), expected.segments.size());
   for (std::size_t s = 0; s < expected.segments.size(); ++s)
     EXPECT_LT((stored.segments[s].offset - expected.segments[s].offset).norm(), 1e-9);
+  EXPECT_TRUE(fs::exists(root / "after" / kTruthBodyModelFile));
 
   // Both clients apply a fit too, each raising the version.
   const std::string address = "127.0.0.1:" + std::to_string(server->port());
