@@ -145,8 +145,7 @@ grpc::ServerUnaryReactor* MocapServiceImpl::GetSkeleton(grpc::CallbackServerCont
                                                         v1::Skeleton* response) {
   if (grpc::Status allowed = authorize(context); !allowed.ok()) return finish(context, allowed);
   const TrackedBody body = pipeline_.trackedBody();
-  skeletonToProto(*body.model, *response);
-  response->set_body_version(body.version);
+  skeletonToProto(*body.model, body.version, *response);
   return finish(context, grpc::Status::OK);
 }
 

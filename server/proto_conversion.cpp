@@ -46,9 +46,10 @@ void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int
   out.set_missed_before(missed_before);
 }
 
-void skeletonToProto(const BodyModel& model, v1::Skeleton& out) {
+void skeletonToProto(const BodyModel& model, uint32_t body_version, v1::Skeleton& out) {
   out.Clear();
   out.set_model_name(model.name);
+  out.set_body_version(body_version);
   for (const Segment& segment : model.segments) {
     v1::Segment* s = out.add_segments();
     s->set_name(segment.name);

@@ -13,7 +13,7 @@ namespace mocap {
 // `joints`: indices into model.points to include, in that order; empty means all.
 void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int>& joints,
                  uint64_t missed_before, v1::Pose& out);
-void skeletonToProto(const BodyModel& model, v1::Skeleton& out);
+void skeletonToProto(const BodyModel& model, uint32_t body_version, v1::Skeleton& out);
 void cameraInfoToProto(const OpenedCamera& camera, v1::CameraInfo& out);
 void recordingToProto(const RecordingStatus& recording, v1::RecordingState& out);
 void cameraStatusToProto(const OpenedCamera& camera, const CameraRuntimeStatus& status,

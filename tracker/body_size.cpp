@@ -71,6 +71,21 @@ BodyModel proportionedBodyModel(const BodyModel& model, const BodyProportions& p
   return fitted;
 }
 
+FitStance fitPoseAt(const BodyModel& model, const Eigen::VectorXd& placed) {
+  if (!model.fit_pose)
+    throw std::invalid_argument("body model '" + model.name +
+                                "' has no fit_pose: the pose a subject stands in to be fitted");
+  FitStance stance{model.stancePose(*model.fit_pose)};
+  for (int d : model.segments.front().dofs) {
+    const Dof& dof = model.dofs[d];
+    const bool about_z =
+        dof.type == DofType::kRotation && dof.axis.isApprox(Eigen::Vector3d::UnitZ());
+    if (dof.type == DofType::kTranslation || about_z) stance.pose[d] = placed[d];
+    if (about_z) stance.turn_dof = d;
+  }
+  return stance;
+}
+
 namespace {
 
 // Scores candidate bodies on the frames: each pose refined from the best body's so far.
@@ -175,11 +190,9 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
 
   std::vector<double> step(BodyProportions::kCount, options.proportion_step);
   for (int round = 0; round < options.proportion_rounds; ++round) {
-    bool moving = false;
     for (int k = 0; k < BodyProportions::kCount; ++k) {
       // Each proportion until its step is below the finest, before the next.
       while (step[k] >= options.finest_step) {
-        moving = true;
         bool improved = false;
         for (double sign : {1.0, -1.0}) {
           BodyProportions tried = fit.proportions;
@@ -200,7 +213,6 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
       }
       step[k] = options.proportion_step / 2;  // the next round looks closer
     }
-    if (!moving) break;
   }
   fit.evaluations = scorer.evaluations();
   return fit;

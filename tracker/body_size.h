@@ -43,6 +43,16 @@ struct BodyProportions {
 // the human's 19 point names; throws std::runtime_error naming a missing one.
 BodyModel proportionedBodyModel(const BodyModel& model, const BodyProportions& proportions);
 
+// The model's fit pose standing where `placed` stands and facing its way: the root's translations
+// and its rotation about world Z taken from `placed`, every other DOF the fit pose's; and the index
+// of that rotation (-1 if the root has none), which a subject turning in place changes. Throws
+// std::invalid_argument if the model has no fit_pose.
+struct FitStance {
+  Eigen::VectorXd pose;
+  int turn_dof = -1;
+};
+FitStance fitPoseAt(const BodyModel& model, const Eigen::VectorXd& placed);
+
 struct BodyFitOptions {
   // The whole body's scale, first: min_scale, min_scale + step, ... up to max_scale.
   double min_scale = 0.75;

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "drivers/clock.h"
+#include "tracker/body_size.h"
 #include "tracker/builtin_models.h"
 
 namespace mocap {
@@ -90,15 +91,9 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
             "fake scene: the subject cannot stand in the fit pose: the body model '" + model.name +
             "' has no fit_pose");
       // Where the motion starts and the way it faces there, in the fit pose.
-      const Eigen::VectorXd& first = scene->motion_->front();
-      scene->fit_pose_ = model.stancePose(*model.fit_pose);
-      for (int d : model.segments.front().dofs) {
-        const Dof& dof = model.dofs[d];
-        const bool about_z =
-            dof.type == DofType::kRotation && dof.axis.isApprox(Eigen::Vector3d::UnitZ());
-        if (dof.type == DofType::kTranslation || about_z) scene->fit_pose_[d] = first[d];
-        if (about_z) scene->fit_turn_dof_ = d;
-      }
+      const FitStance standing = fitPoseAt(model, scene->motion_->front());
+      scene->fit_pose_ = standing.pose;
+      scene->fit_turn_dof_ = standing.turn_dof;
     }
     if (o.rig.empty()) {
       if (o.cameras <= 0) return Status::Error("fake scene: cameras must be positive");

@@ -141,5 +141,22 @@ TEST(BodyFit, StopsWhenAsked) {
   EXPECT_EQ(asked, 4);
 }
 
+TEST(BodyFit, TheFitPoseStandsWhereAPoseStandsAndFacesItsWay) {
+  const BodyModel human = builtinHumanModel();
+  const Eigen::VectorXd placed =
+      Eigen::VectorXd::Constant(static_cast<Eigen::Index>(human.dofs.size()), 0.3);
+  const FitStance standing = fitPoseAt(human, placed);
+  const Eigen::VectorXd fit_pose = human.stancePose(*human.fit_pose);
+  EXPECT_EQ(standing.turn_dof, human.dofIndex("root_yaw"));
+  for (std::size_t d = 0; d < human.dofs.size(); ++d) {
+    const std::string& name = human.dofs[d].name;
+    const bool taken =
+        name == "root_tx" || name == "root_ty" || name == "root_tz" || name == "root_yaw";
+    const auto i = static_cast<Eigen::Index>(d);
+    EXPECT_EQ(standing.pose[i], taken ? 0.3 : fit_pose[i]) << name;
+  }
+  EXPECT_THROW(fitPoseAt(builtinHandModel(), Eigen::VectorXd::Zero(15)), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace mocap

@@ -209,12 +209,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   options.evaluations_per_frame = config.evaluations;
   options.seed = config.seed;
   WorkerPool pool(config.threads);
-  // The model at a rate 1/k times its own has k times its speed limits per frame.
-  const auto atSpeedScale = [&](const BodyModel& body) {
-    return atFrameRate(body, body.frame_rate / config.speed_scale);
-  };
   // The body the tracker knows: the subject's own (every other table of docs/human.md), the
-  // model file as given, or that file scaled to the size fitted from the first seconds.
+  // model file as given, or that file with the proportions fitted to the subject standing in its
+  // fit pose before the motion.
   std::optional<BodyFit> body_fit;
   double body_fit_seconds = 0;
   BodyModel tracked_body = model;
@@ -226,15 +223,13 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     // file's body is fitted to it.
     if (!unfitted.fit_pose)
       throw std::invalid_argument("--tracked-body fit: the body model has no fit_pose");
-    const int yaw = unfitted.dofIndex("root_yaw");
-    Eigen::VectorXd standing = unfitted.stancePose(*unfitted.fit_pose);
-    for (int d : unfitted.segments[0].dofs)
-      if (unfitted.dofs[d].type == DofType::kTranslation || d == yaw) standing[d] = truth[0][d];
+    const FitStance standing = fitPoseAt(unfitted, truth[0]);
     std::vector<std::vector<SilhouetteMask>> fit_frames(kFitFrames);
     std::vector<cv::Mat> fit_images;
     for (int f = 0; f < kFitFrames; ++f) {
-      Eigen::VectorXd turned = standing;
-      turned[yaw] += M_PI / 2 * f / std::max(1, kFitFrames - 1);
+      Eigen::VectorXd turned = standing.pose;
+      if (standing.turn_dof >= 0)
+        turned[standing.turn_dof] += M_PI / 2 * f / std::max(1, kFitFrames - 1);
       renderer.renderSilhouettes(turned, fit_images);
       for (std::size_t c = 0; c < rig.size(); ++c) {
         // Frames before the motion's own (negative), so their defects differ from its frames'.
@@ -254,7 +249,8 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     throw std::invalid_argument("--tracked-body: expected truth, default or fit, got '" +
                                 config.tracked_body + "'");
   }
-  const BodyModel tracked = atSpeedScale(tracked_body);
+  // The model at a rate 1/k times its own has k times its speed limits per frame.
+  const BodyModel tracked = atFrameRate(tracked_body, tracked_body.frame_rate / config.speed_scale);
   std::unique_ptr<PoseFilter> filter;
   AcquiringFilter* acquiring = nullptr;
   const auto makeTrackerFilter = [&] {
