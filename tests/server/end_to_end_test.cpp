@@ -858,12 +858,14 @@ TEST_F(EndToEndTest, TracksWithTheFittedBodyOnceAFitIsApplied) {
   }
 
   // The fitted body explains the silhouettes of the same standing, turning subject better than
-  // the built-in human (28 % longer arms, 6 % longer legs) could. The joints' error is printed, not
-  // asserted: an A-pose seen by two cameras looks much the same from behind, and a tracker that
-  // takes the subject facing the other way is about 400 mm off with silhouettes just as well
-  // explained (docs/service.md).
-  const std::vector<v1::Pose> after = readPoses(*stub, 50, ofVersion(1));
-  ASSERT_EQ(after.size(), 50u);
+  // the built-in human (28 % longer arms, 6 % longer legs) could, over 6 s of it: within them the
+  // fitted body can lose a limb for 2 s or so and find it again (silhouette fit 0.71-0.81 against
+  // 0.89-0.92; docs/service.md), so a 2 s window failed once in CI. The joints' error is printed,
+  // not asserted: an A-pose seen by two cameras looks much the same from behind, and a tracker
+  // that takes the subject facing the other way is about 400 mm off with silhouettes just as well
+  // explained.
+  const std::vector<v1::Pose> after = readPoses(*stub, 150, ofVersion(1));
+  ASSERT_EQ(after.size(), 150u);
   const double before_fit = median(before, &v1::Pose::silhouette_fit);
   const double after_fit = median(after, &v1::Pose::silhouette_fit);
   std::printf(
