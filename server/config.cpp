@@ -17,7 +17,7 @@
 #include <openssl/x509.h>
 #include <yaml-cpp/yaml.h>
 
-#include "tracker/body_model.h"
+#include "tracker/model/body_model.h"
 
 namespace mocap {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "drivers/camera_driver.h"
-#include "tracker/filter.h"
+#include "tracker/filters/filter.h"
 
 namespace mocap {
 
@@ -57,7 +57,7 @@ struct TrackerSettings {
   // human's 17 of the lower body and trunk), the others held at the starting pose.
   std::string dofs = "all";
   // Where tracking starts. "auto": live on the fake scene, its true first pose; otherwise the
-  // subject found in the silhouettes (tracker/acquire.h) when the body's root can be placed (a
+  // subject found in the silhouettes (tracker/search/acquire.h) when the body's root can be placed (a
   // person), else the neutral pose (the hand). "acquire": always found (a body whose root cannot
   // be placed is refused). "neutral": the body model's neutral pose.
   std::string start = "auto";

@@ -10,10 +10,10 @@
 
 #include "drivers/fake/fake_driver.h"
 #include "server/log.h"
-#include "tracker/acquire.h"
-#include "tracker/builtin_models.h"
-#include "tracker/bvh.h"
-#include "tracker/retarget.h"
+#include "tracker/search/acquire.h"
+#include "tracker/model/builtin_models.h"
+#include "tracker/motion/bvh.h"
+#include "tracker/motion/retarget.h"
 
 namespace mocap {
 namespace {

@@ -13,8 +13,8 @@
 #include "server/mocap_service.h"
 #include "server/pipeline.h"
 #include "server/pose_publisher.h"
-#include "tracker/body_model.h"
-#include "tracker/camera.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/camera.h"
 
 namespace mocap {
 

@@ -7,7 +7,7 @@
 #include "server/pose_stream.h"
 #include "server/proto_conversion.h"
 #include "server/stats.h"
-#include "tracker/acquire.h"
+#include "tracker/search/acquire.h"
 
 namespace mocap {
 namespace {

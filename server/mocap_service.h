@@ -11,7 +11,7 @@
 #include "mocap/v1/mocap.grpc.pb.h"
 #include "server/pipeline.h"
 #include "server/pose_publisher.h"
-#include "tracker/body_model.h"
+#include "tracker/model/body_model.h"
 
 namespace mocap {
 

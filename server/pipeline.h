@@ -28,16 +28,16 @@
 #include "server/pose.h"
 #include "server/pose_publisher.h"
 #include "server/stats.h"
-#include "tracker/acquire.h"
-#include "tracker/body_model.h"
-#include "tracker/body_size.h"
-#include "tracker/camera.h"
-#include "tracker/filter.h"
-#include "tracker/kinematics.h"
-#include "tracker/silhouette_mask.h"
+#include "tracker/search/acquire.h"
+#include "tracker/model/body_model.h"
+#include "tracker/search/body_size.h"
+#include "tracker/model/camera.h"
+#include "tracker/filters/filter.h"
+#include "tracker/model/kinematics.h"
+#include "tracker/likelihood/silhouette_mask.h"
 #include "tracker/vision/background_model.h"
 #include "tracker/vision/silhouette_extractor.h"
-#include "tracker/worker_pool.h"
+#include "tracker/filters/worker_pool.h"
 
 namespace mocap {
 
@@ -75,7 +75,7 @@ struct PipelineInputs {
   std::shared_ptr<const BodyModel> fit_model;
   // Where the subject starts; empty: the model's neutral pose.
   Eigen::VectorXd initial_pose;
-  // Instead: the tracker finds the subject in the first frame sets (tracker/acquire.h). Needs a
+  // Instead: the tracker finds the subject in the first frame sets (tracker/search/acquire.h). Needs a
   // body whose root can be placed (canAcquire).
   bool acquire = false;
 };
@@ -219,7 +219,7 @@ class Pipeline {
   void captureBackground(int frames, std::function<void(const BackgroundResult&)> done);
 
   // Fits the body (PipelineInputs::fit_model, else the tracked one) to the subject standing in its
-  // fit_pose (tracker/body_size.h fitBodyInPose): the mask thread collects the silhouettes of
+  // fit_pose (tracker/search/body_size.h fitBodyInPose): the mask thread collects the silhouettes of
   // `frame_sets` of the sets it hands the tracker, one every half second (so a subject turning
   // in place is seen from several sides), then a thread of its own fits (seconds; the mask and
   // tracker threads go on, and the tracker keeps its body). `done` is called once: at once on a

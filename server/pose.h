@@ -22,7 +22,7 @@ struct Pose {
   Eigen::VectorXd dofs;
   double score = 0;   // best particle's log-likelihood
   double spread = 0;  // particle spread around the estimate
-  std::optional<double> silhouette_fit;  // tracker/acquire.h silhouetteFit, when measured
+  std::optional<double> silhouette_fit;  // tracker/search/acquire.h silhouetteFit, when measured
   std::optional<double> reference_error_mm;  // vs the true pose, when the source knows it
 };
 

@@ -6,7 +6,7 @@
 #include "mocap/v1/mocap.pb.h"
 #include "server/pipeline.h"
 #include "server/pose.h"
-#include "tracker/body_model.h"
+#include "tracker/model/body_model.h"
 
 namespace mocap {
 

@@ -8,7 +8,7 @@
 #include "clients/mocapctl/session_views.h"
 #include "tracker/calibration/board_flags.h"
 #include "tracker/calibration/calibrate.h"
-#include "tracker/experiments/args.h"
+#include "tracker/cli/args.h"
 
 namespace mocapctl {
 

@@ -8,8 +8,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "drivers/clock.h"
-#include "tracker/body_size.h"
-#include "tracker/builtin_models.h"
+#include "tracker/search/body_size.h"
+#include "tracker/model/builtin_models.h"
 
 namespace mocap {
 namespace {

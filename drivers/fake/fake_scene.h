@@ -13,12 +13,12 @@
 #include <opencv2/core/mat.hpp>
 
 #include "drivers/status.h"
-#include "tracker/body_model.h"
-#include "tracker/camera.h"
-#include "tracker/kinematics.h"
-#include "tracker/motion.h"
-#include "tracker/raster.h"
-#include "tracker/scene.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/camera.h"
+#include "tracker/model/kinematics.h"
+#include "tracker/motion/motion.h"
+#include "tracker/likelihood/raster.h"
+#include "tracker/sim/scene.h"
 
 namespace mocap {
 
@@ -65,7 +65,7 @@ struct FakeSceneOptions {
   // Frames the cameras see the empty scene before the subject walks in, as a real room before
   // the session starts: time to capture the background. The motion starts at its first frame then.
   uint64_t empty_frames = 0;
-  // Then, frames the subject stands in the model's fit_pose (tracker/body_size.h) before the
+  // Then, frames the subject stands in the model's fit_pose (tracker/search/body_size.h) before the
   // motion starts, as a real subject asked to while the body is fitted to them, turning in place
   // back and forth by up to 45 degrees (a 4 s cycle) to show the cameras more sides: the motion's
   // first frame with every DOF but the root's translations and its rotation about Z (where it
@@ -76,7 +76,7 @@ struct FakeSceneOptions {
 };
 
 // The rig used when none is given: for a body taller than half a metre the lab rig framed on the
-// motion's path (labRig in tracker/scene.h), otherwise one framed for a hand-sized model (the hand
+// motion's path (labRig in tracker/sim/scene.h), otherwise one framed for a hand-sized model (the hand
 // experiment's rig), so the default scene fills the image.
 Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width,
                    int height);

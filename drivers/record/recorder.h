@@ -17,8 +17,8 @@
 #include "drivers/record/session_format.h"
 #include "drivers/status.h"
 #include "drivers/sync/frame_synchronizer.h"
-#include "tracker/body_model.h"
-#include "tracker/camera.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/camera.h"
 #include "tracker/vision/background_model.h"
 
 namespace mocap {

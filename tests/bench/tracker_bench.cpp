@@ -9,13 +9,13 @@
 
 #include <benchmark/benchmark.h>
 
-#include "tracker/bvh.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/experiments/hand_experiment.h"
 #include "tracker/experiments/human_experiment.h"
-#include "tracker/kinematics.h"
-#include "tracker/motion.h"
-#include "tracker/retarget.h"
-#include "tracker/scene.h"
+#include "tracker/model/kinematics.h"
+#include "tracker/motion/motion.h"
+#include "tracker/motion/retarget.h"
+#include "tracker/sim/scene.h"
 
 namespace mocap {
 namespace {

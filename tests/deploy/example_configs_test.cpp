@@ -12,7 +12,7 @@
 
 #include "drivers/builtin_drivers.h"
 #include "server/config.h"
-#include "tracker/camera.h"
+#include "tracker/model/camera.h"
 
 namespace mocap {
 namespace {

@@ -15,7 +15,7 @@
 
 #include "drivers/builtin_drivers.h"
 #include "server/tls_test_support.h"
-#include "tracker/experiments/human_experiment.h"
+#include "tracker/filters/filter.h"
 
 namespace mocap {
 namespace {
@@ -173,7 +173,7 @@ TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
   // The daemon does not link the experiments; this keeps its copy of their defaults from drifting.
   const FilterOptions daemon = TrackerSettings::forPeople().filterOptions();
   const FilterOptions experiment = humanFilterDefaults();
-  EXPECT_EQ(daemon.evaluations_per_frame, HumanExperimentConfig().evaluations);
+  EXPECT_EQ(daemon.evaluations_per_frame, kHumanEvaluations);
   EXPECT_EQ(daemon.lookahead, experiment.lookahead);
   EXPECT_EQ(daemon.injection, experiment.injection);
   EXPECT_EQ(daemon.injection_share, experiment.injection_share);

@@ -24,11 +24,11 @@
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
 #include "server/tls_test_support.h"
-#include "tracker/body_size.h"
-#include "tracker/builtin_models.h"
-#include "tracker/bvh.h"
-#include "tracker/kinematics.h"
-#include "tracker/retarget.h"
+#include "tracker/search/body_size.h"
+#include "tracker/model/builtin_models.h"
+#include "tracker/motion/bvh.h"
+#include "tracker/model/kinematics.h"
+#include "tracker/motion/retarget.h"
 
 namespace mocap {
 namespace {
@@ -659,7 +659,7 @@ TEST_F(EndToEndTest, ReacquireFindsThePersonAgainOrSaysWhyNot) {
 }
 
 // `body`'s build against the built-in human's: the summed rest lengths of `bones` (names of
-// modelBoneLengths, tracker/retarget.h) over the built-in human's.
+// modelBoneLengths, tracker/motion/retarget.h) over the built-in human's.
 double boneRatio(const BodyModel& body, const std::vector<std::string>& bones) {
   const auto total = [&](const std::vector<BoneLength>& lengths) {
     double sum = 0;

@@ -4,7 +4,7 @@
 #pragma once
 
 #include "tracker/calibration/board.h"
-#include "tracker/experiments/args.h"
+#include "tracker/cli/args.h"
 
 namespace mocap {
 

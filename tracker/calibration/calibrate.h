@@ -14,7 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "tracker/calibration/board.h"
-#include "tracker/camera.h"
+#include "tracker/model/camera.h"
 
 namespace mocap {
 

@@ -7,11 +7,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tracker/bvh.h"
-#include "tracker/experiments/args.h"
+#include "tracker/motion/bvh.h"
+#include "tracker/cli/args.h"
 #include "tracker/experiments/commands.h"
 #include "tracker/experiments/human_experiment.h"
-#include "tracker/retarget.h"
+#include "tracker/motion/retarget.h"
 
 namespace mocap {
 

@@ -5,12 +5,12 @@
 #include <cmath>
 #include <iostream>
 
-#include "tracker/experiments/args.h"
+#include "tracker/cli/args.h"
 #include "tracker/experiments/commands.h"
 #include "tracker/experiments/metrics.h"
-#include "tracker/kinematics.h"
-#include "tracker/motion.h"
-#include "tracker/scene.h"
+#include "tracker/model/kinematics.h"
+#include "tracker/motion/motion.h"
+#include "tracker/sim/scene.h"
 
 namespace mocap {
 

@@ -14,15 +14,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tracker/acquire.h"
-#include "tracker/body_size.h"
-#include "tracker/bvh.h"
-#include "tracker/experiments/args.h"
+#include "tracker/search/acquire.h"
+#include "tracker/search/body_size.h"
+#include "tracker/motion/bvh.h"
+#include "tracker/cli/args.h"
 #include "tracker/experiments/commands.h"
-#include "tracker/full_body.h"
-#include "tracker/kinematics.h"
-#include "tracker/retarget.h"
-#include "tracker/scene.h"
+#include "tracker/likelihood/full_body.h"
+#include "tracker/model/kinematics.h"
+#include "tracker/motion/retarget.h"
+#include "tracker/sim/scene.h"
 
 namespace mocap {
 
@@ -143,19 +143,6 @@ std::string lostFrameCause(double left_leg, double right_leg, double worst_arm,
   if (std::max(left_leg, right_leg) > 100) return "legs";
   if (worst_arm > 100) return "arms";
   return "other";
-}
-
-FilterOptions humanFilterDefaults() {
-  FilterOptions options;
-  options.lookahead = FilterOptions::Lookahead::kBody;
-  options.injection = FilterOptions::Injection::kSegment;
-  options.injection_share = 0.05;
-  options.refine_share = 0.4;
-  options.refine_hold = true;
-  options.refine_plant = true;
-  options.refine_restart_share = 0.14;
-  options.refine_facing_prior = 16;
-  return options;
 }
 
 nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {

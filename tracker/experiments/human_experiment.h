@@ -12,12 +12,12 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core/mat.hpp>
 
-#include "tracker/body_model.h"
-#include "tracker/builtin_models.h"
-#include "tracker/camera.h"
-#include "tracker/filter.h"
-#include "tracker/motion.h"
-#include "tracker/scene.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/builtin_models.h"
+#include "tracker/model/camera.h"
+#include "tracker/filters/filter.h"
+#include "tracker/motion/motion.h"
+#include "tracker/sim/scene.h"
 
 namespace mocap {
 
@@ -25,15 +25,6 @@ namespace mocap {
 // holes, and a shadow blob on the floor beside the feet. (A missed limb is rendered by hiding a
 // segment in the SceneRenderer.)
 void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera);
-
-// The factored filter's options for the human body, chosen on the walk (seeds 1-3; see
-// docs/human.md): look-ahead over the whole body, 5 % of the candidates injected with a segment's
-// angles at once, and 40 % of the budget on the full-body refinement, which also turns segments
-// with their ball-joint children held and restarts one limb per frame with 14 % of the refinement
-// (32 random draws at 2000 evaluations; walk seeds 1-6), and scores poses with the facing prior
-// (weight 16; walk and hop seeds 7-24, checked on 61-96). The paper has no look-ahead, injects one
-// DOF into 2 % and does not refine.
-FilterOptions humanFilterDefaults();
 
 // What a lost frame (MPJPE over 100 mm) got wrong, the first that applies: "legs_swapped" (the
 // legs' error with left and right exchanged under half their mean error), "heading" (more than 20
@@ -47,7 +38,7 @@ inline constexpr int kFitFrames = 5;
 struct HumanExperimentConfig {
   std::string motion_path;          // BVH (CMU skeleton)
   std::string method = "factored";
-  int evaluations = 2000;
+  int evaluations = kHumanEvaluations;
   int cameras = 2;
   int frames = 200;
   uint64_t seed = 1;

@@ -11,7 +11,7 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "tracker/silhouette_mask.h"
+#include "tracker/likelihood/silhouette_mask.h"
 #include "tracker/vision/background_model.h"
 
 namespace mocap {

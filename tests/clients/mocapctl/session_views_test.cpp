@@ -13,7 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "drivers/record/recorder.h"
-#include "tracker/calibration/calibration_experiment.h"
+#include "tracker/experiments/calibration_experiment.h"
 
 namespace {
 

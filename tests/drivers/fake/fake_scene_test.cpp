@@ -11,7 +11,7 @@
 #include "drivers/builtin_drivers.h"
 #include "drivers/fake/fake_driver.h"
 #include "tests/drivers/frame_collector.h"
-#include "tracker/builtin_models.h"
+#include "tracker/model/builtin_models.h"
 
 namespace mocap {
 namespace {

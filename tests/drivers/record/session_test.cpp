@@ -16,7 +16,7 @@
 
 #include "drivers/record/recorder.h"
 #include "drivers/record/session_reader.h"
-#include "tracker/builtin_models.h"
+#include "tracker/model/builtin_models.h"
 
 namespace mocap {
 namespace {

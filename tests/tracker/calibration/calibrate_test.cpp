@@ -12,7 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tracker/calibration/board_flags.h"
-#include "tracker/calibration/calibration_experiment.h"
+#include "tracker/experiments/calibration_experiment.h"
 
 namespace mocap {
 namespace {

@@ -9,8 +9,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "tracker/motion.h"
-#include "tracker/scene.h"
+#include "tracker/motion/motion.h"
+#include "tracker/sim/scene.h"
 
 namespace mocap {
 namespace {

@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "tracker/vision/test_scene.h"
+#include "tracker/sim/test_scene.h"
 
 namespace mocap {
 namespace {

@@ -1,0 +1,153 @@
+// Camera projection against OpenCV's projectPoints, and rig files against OpenCV's own reader.
+#include "tracker/model/camera.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <random>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/core/eigen.hpp>
+
+namespace mocap {
+namespace {
+
+using ::testing::HasSubstr;
+
+CameraModel distortedCamera() {
+  CameraModel c = CameraModel::lookAt("cam", Eigen::Vector3d(1.5, -2.0, 1.2),
+                                      Eigen::Vector3d(0, 0, 0.9), Eigen::Vector3d::UnitZ(), 780,
+                                      580, 900);
+  c.fy = 905;
+  c.cx = 385.5;
+  c.cy = 292.25;
+  c.distortion = {-0.21, 0.08, 0.0012, -0.0007, -0.01};
+  return c;
+}
+
+TEST(Camera, ProjectionMatchesOpenCvProjectPoints) {
+  const CameraModel cam = distortedCamera();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  std::vector<cv::Point3d> world;
+  for (int i = 0; i < 200; ++i) world.emplace_back(u(rng), u(rng), 0.9 + u(rng));
+  cv::Mat r, rvec, t, k, dist;
+  cv::eigen2cv(cam.rotation, r);
+  cv::Rodrigues(r, rvec);
+  cv::eigen2cv(cam.translation, t);
+  k = (cv::Mat_<double>(3, 3) << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
+  dist = cv::Mat(cam.distortion.size(), 1, CV_64F, const_cast<double*>(cam.distortion.data()));
+  std::vector<cv::Point2d> expected;
+  cv::projectPoints(world, rvec, t, k, dist, expected);
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    Eigen::Vector2d px;
+    ASSERT_TRUE(cam.project(Eigen::Vector3d(world[i].x, world[i].y, world[i].z), px));
+    EXPECT_NEAR(px.x(), expected[i].x, 1e-6);
+    EXPECT_NEAR(px.y(), expected[i].y, 1e-6);
+  }
+}
+
+TEST(Camera, BackProjectionIsTheRayThroughTheProjectedPoint) {
+  const CameraModel cam = distortedCamera();
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  double worst = 0;
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d world(u(rng), u(rng), 0.9 + u(rng));
+    Eigen::Vector2d px;
+    ASSERT_TRUE(cam.project(world, px));
+    const Eigen::Vector3d ray = cam.backProject(px);
+    EXPECT_NEAR(ray.norm(), 1.0, 1e-12);
+    const Eigen::Vector3d to_point = world - cam.center();
+    ASSERT_GT(to_point.dot(ray), 0) << "the ray points away from the point";
+    worst = std::max(worst, (to_point - to_point.dot(ray) * ray).norm());
+  }
+  EXPECT_LT(worst, 1e-7);  // metres: the distortion undone to far below a pixel
+}
+
+TEST(Camera, LookAtPutsTheTargetAtThePrincipalPointWithZUpOnScreen) {
+  const CameraModel cam = CameraModel::lookAt("c", Eigen::Vector3d(0, -3, 1), Eigen::Vector3d(0, 0, 1),
+                                              Eigen::Vector3d::UnitZ(), 780, 580, 1000);
+  Eigen::Vector2d px;
+  ASSERT_TRUE(cam.project(Eigen::Vector3d(0, 0, 1), px));
+  EXPECT_NEAR(px.x(), 390, 1e-9);
+  EXPECT_NEAR(px.y(), 290, 1e-9);
+  ASSERT_TRUE(cam.project(Eigen::Vector3d(0, 0, 1.3), px));
+  EXPECT_LT(px.y(), 290);  // higher in the world is higher in the image
+  EXPECT_TRUE(cam.center().isApprox(Eigen::Vector3d(0, -3, 1)));
+  EXPECT_FALSE(cam.project(Eigen::Vector3d(0, -4, 1), px));  // behind the camera
+}
+
+std::string tempPath(const std::string& name) {
+  return (testing::TempDir() + "/") + name;
+}
+
+TEST(Camera, RigRoundTripIsReadableByOpenCv) {
+  Rig rig = {distortedCamera(), CameraModel::lookAt("side", Eigen::Vector3d(3, 0, 1),
+                                                    Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitZ(),
+                                                    640, 480, 700)};
+  const std::string path = tempPath("rig.yaml");
+  saveRig(path, rig);
+
+  cv::FileStorage fs(path, cv::FileStorage::READ);  // OpenCV's own reader sees the standard fields
+  ASSERT_TRUE(fs.isOpened());
+  EXPECT_EQ(static_cast<int>(fs["camera_count"]), 2);
+  cv::Mat k;
+  fs["camera_0"]["camera_matrix"] >> k;
+  EXPECT_DOUBLE_EQ(k.at<double>(1, 1), 905);
+  EXPECT_EQ(static_cast<int>(fs["camera_1"]["image_width"]), 640);
+
+  const Rig back = loadRig(path);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].name, "cam");
+  EXPECT_EQ(back[1].height, 480);
+  EXPECT_DOUBLE_EQ(back[0].cx, 385.5);
+  EXPECT_EQ(back[0].distortion, rig[0].distortion);
+  EXPECT_TRUE(back[0].rotation.isApprox(rig[0].rotation, 1e-12));
+  EXPECT_TRUE(back[1].translation.isApprox(rig[1].translation, 1e-12));
+}
+
+std::string loadError(const std::string& text) {
+  const std::string path = tempPath("bad_rig.yaml");
+  std::ofstream(path) << text;
+  try {
+    loadRig(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Camera, BadRigFilesAreRefusedWithTheField) {
+  const std::string path = tempPath("good.yaml");
+  saveRig(path, {distortedCamera()});
+  std::ifstream in(path);
+  const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+
+  std::string bad = good;
+  bad.replace(bad.find("image_width: 780"), 16, "image_width: -5");
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_0.image_width: must be positive"));
+
+  bad = good;
+  bad.replace(bad.find("camera_count: 1"), 15, "camera_count: 2");
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_1: missing"));
+
+  bad = good;
+  bad.replace(bad.find("R:"), 2, "Q:");
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_0.R: missing"));
+
+  // A matrix without its element type: OpenCV asserts while reading it, named here instead.
+  bad = good;
+  const std::size_t distortion = bad.find("distortion_coefficients");
+  bad.erase(bad.find("dt: d", distortion), 5);
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_0.distortion_coefficients: not an OpenCV matrix"));
+
+  EXPECT_THAT(loadError("%YAML:1.0\n---\nfoo: 1\n"), HasSubstr("camera_count: missing"));
+  EXPECT_THROW(loadRig("/nonexistent/rig.yaml"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace mocap

@@ -1,0 +1,309 @@
+// BVH reading and skeleton forward kinematics. The hierarchy is read as a token stream (BVH does
+// not care about line breaks there); the MOTION section is read line by line, one frame a line.
+#include "tracker/motion/bvh.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+namespace mocap {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+struct Token {
+  std::string text;
+  int line = 0;
+};
+
+std::vector<std::string> splitWords(const std::string& line) {
+  std::vector<std::string> words;
+  std::istringstream in(line);
+  for (std::string w; in >> w;) words.push_back(w);
+  return words;
+}
+
+std::optional<double> parseNumber(const std::string& text) {
+  double v = 0;
+  const char* end = text.data() + text.size();
+  // from_chars rejects a leading '+', which some exporters write.
+  const char* begin = text.data() + (text.size() > 1 && text[0] == '+' ? 1 : 0);
+  const auto [ptr, ec] = std::from_chars(begin, end, v);
+  if (ec != std::errc() || ptr != end || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+std::optional<BvhChannel> parseChannel(const std::string& name) {
+  static const std::map<std::string, BvhChannel> kByName = {
+      {"Xposition", BvhChannel::kXposition}, {"Yposition", BvhChannel::kYposition},
+      {"Zposition", BvhChannel::kZposition}, {"Xrotation", BvhChannel::kXrotation},
+      {"Yrotation", BvhChannel::kYrotation}, {"Zrotation", BvhChannel::kZrotation}};
+  auto it = kByName.find(name);
+  if (it == kByName.end()) return std::nullopt;
+  return it->second;
+}
+
+class Parser {
+ public:
+  Parser(const std::string& text, std::string source) : source_(std::move(source)) {
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      lines_.push_back(line);
+    }
+  }
+
+  Bvh parse() {
+    Bvh bvh;
+    const std::size_t motion_line = findMotionLine();
+    for (std::size_t i = 0; i < motion_line; ++i)
+      for (std::string& w : splitWords(lines_[i])) tokens_.push_back({w, static_cast<int>(i) + 1});
+
+    if (tokens_.empty() || tokens_[0].text != "HIERARCHY")
+      fail(tokens_.empty() ? 1 : tokens_[0].line, "expected 'HIERARCHY' at the start of the file");
+    next_ = 1;
+    const Token& root = take("'ROOT'");
+    if (root.text != "ROOT") fail(root.line, "expected 'ROOT', got '" + root.text + "'");
+    parseJoint(bvh.skeleton, -1, take("the root joint's name").text, root.line, false);
+    if (next_ < tokens_.size()) {
+      fail(tokens_[next_].line, "unexpected '" + tokens_[next_].text +
+                                    "' after the root joint (expected MOTION; one root only)");
+    }
+    parseMotion(bvh, motion_line);
+    return bvh;
+  }
+
+ private:
+  [[noreturn]] void fail(int line, const std::string& reason) const {
+    throw std::runtime_error(source_ + ":" + std::to_string(line) + ": " + reason);
+  }
+
+  std::size_t findMotionLine() const {
+    for (std::size_t i = 0; i < lines_.size(); ++i) {
+      const std::vector<std::string> words = splitWords(lines_[i]);
+      if (!words.empty() && words[0] == "MOTION") return i;
+    }
+    fail(static_cast<int>(lines_.size()), "missing the MOTION section");
+  }
+
+  int lastLine() const { return tokens_.empty() ? 1 : tokens_.back().line; }
+
+  const Token& take(const std::string& what) {
+    if (next_ >= tokens_.size())
+      fail(lastLine(), "unexpected end of the hierarchy: expected " + what);
+    return tokens_[next_++];
+  }
+
+  double number(const std::string& what) {
+    const Token& t = take(what);
+    const std::optional<double> v = parseNumber(t.text);
+    if (!v) fail(t.line, what + ": not a number: '" + t.text + "'");
+    return *v;
+  }
+
+  void parseJoint(BvhSkeleton& skeleton, int parent, const std::string& name, int line,
+                  bool end_site) {
+    const int index = static_cast<int>(skeleton.joints.size());
+    skeleton.joints.push_back({});
+    skeleton.joints[index].name = name;
+    skeleton.joints[index].parent = parent;
+    skeleton.joints[index].is_end_site = end_site;
+    skeleton.joints[index].first_channel = skeleton.channel_count;
+    const std::string what = end_site ? "the End Site of '" + skeleton.joints[parent].name + "'"
+                                      : "joint '" + name + "'";
+    if (const Token& open = take("'{' opening " + what); open.text != "{")
+      fail(open.line, "expected '{' opening " + what + ", got '" + open.text + "'");
+    bool has_offset = false, has_channels = false;
+    for (;;) {
+      if (next_ >= tokens_.size())
+        fail(lastLine(),
+             "missing '}' closing " + what + " (opened at line " + std::to_string(line) + ")");
+      const Token& keyword = tokens_[next_++];
+      if (keyword.text == "}") break;
+      if (keyword.text == "OFFSET") {
+        if (has_offset) fail(keyword.line, what + ": a second OFFSET");
+        for (int k = 0; k < 3; ++k) skeleton.joints[index].offset[k] = number(what + " OFFSET");
+        has_offset = true;
+      } else if (keyword.text == "CHANNELS") {
+        if (end_site) fail(keyword.line, what + ": an End Site has no CHANNELS");
+        if (has_channels) fail(keyword.line, what + ": a second CHANNELS");
+        parseChannels(skeleton, index, what);
+        has_channels = true;
+      } else if (keyword.text == "JOINT") {
+        if (end_site) fail(keyword.line, what + ": an End Site has no child joints");
+        parseJoint(skeleton, index, take("a joint name after JOINT").text, keyword.line, false);
+      } else if (keyword.text == "End") {
+        if (end_site) fail(keyword.line, what + ": an End Site has no child joints");
+        if (const Token& site = take("'Site' after 'End'"); site.text != "Site")
+          fail(site.line, "expected 'Site' after 'End', got '" + site.text + "'");
+        parseJoint(skeleton, index, name + "_End", keyword.line, true);
+      } else {
+        fail(keyword.line, "unknown keyword '" + keyword.text + "' in " + what +
+                               " (expected OFFSET, CHANNELS, JOINT, End Site or '}')");
+      }
+    }
+    if (!has_offset) fail(line, what + ": missing OFFSET");
+  }
+
+  void parseChannels(BvhSkeleton& skeleton, int index, const std::string& what) {
+    const Token& count_token = take(what + " channel count");
+    const std::optional<double> count = parseNumber(count_token.text);
+    if (!count || *count != std::floor(*count) || *count < 0 || *count > 6)
+      fail(count_token.line,
+           what + ": channel count must be 0 to 6, got '" + count_token.text + "'");
+    BvhJoint& joint = skeleton.joints[index];
+    for (int k = 0; k < static_cast<int>(*count); ++k) {
+      const Token& t = take(what + " channel name");
+      const std::optional<BvhChannel> channel = parseChannel(t.text);
+      if (!channel) {
+        fail(t.line, what + ": unknown channel '" + t.text +
+                         "' (expected X/Y/Zposition or X/Y/Zrotation; CHANNELS " +
+                         count_token.text + " lists " + count_token.text + " names)");
+      }
+      for (BvhChannel c : joint.channels)
+        if (c == *channel) fail(t.line, what + ": channel '" + t.text + "' listed twice");
+      joint.channels.push_back(*channel);
+    }
+    skeleton.channel_count += static_cast<int>(joint.channels.size());
+  }
+
+  // Reads "<label> <value>" from the first non-blank line at or after `i`; returns the value.
+  double header(std::size_t& i, const std::vector<std::string>& label, const std::string& spelled) {
+    while (i < lines_.size() && splitWords(lines_[i]).empty()) ++i;
+    const int line = static_cast<int>(std::min(i, lines_.size() - 1)) + 1;
+    if (i >= lines_.size()) fail(line, "missing '" + spelled + "' after MOTION");
+    const std::vector<std::string> words = splitWords(lines_[i]);
+    if (words.size() != label.size() + 1 || !std::equal(label.begin(), label.end(), words.begin()))
+      fail(line, "expected '" + spelled + " <value>', got '" + lines_[i] + "'");
+    const std::optional<double> v = parseNumber(words.back());
+    if (!v) fail(line, spelled + ": not a number: '" + words.back() + "'");
+    ++i;
+    return *v;
+  }
+
+  void parseMotion(Bvh& bvh, std::size_t motion_line) {
+    std::size_t i = motion_line + 1;
+    const int frames_line = static_cast<int>(i) + 1;
+    const double declared = header(i, {"Frames:"}, "Frames:");
+    if (declared < 0 || declared != std::floor(declared))
+      fail(static_cast<int>(i), "Frames: must be a whole number >= 0");
+    const double frame_time = header(i, {"Frame", "Time:"}, "Frame Time:");
+    if (frame_time <= 0) fail(static_cast<int>(i), "Frame Time: must be positive");
+    bvh.motion.frame_time = frame_time;
+
+    const long expected = static_cast<long>(declared);
+    const int channels = bvh.skeleton.channel_count;
+    for (; i < lines_.size(); ++i) {
+      const std::vector<std::string> words = splitWords(lines_[i]);
+      if (words.empty()) continue;
+      const int line = static_cast<int>(i) + 1;
+      const long frame = static_cast<long>(bvh.motion.frames.size());
+      if (frame >= expected) {
+        fail(line, "more frame lines than the " + std::to_string(expected) +
+                       " declared by 'Frames:' (line " + std::to_string(frames_line) + ")");
+      }
+      if (static_cast<int>(words.size()) != channels) {
+        fail(line, "frame " + std::to_string(frame) + " has " + std::to_string(words.size()) +
+                       " values, the hierarchy has " + std::to_string(channels) + " channels");
+      }
+      Eigen::VectorXd values(channels);
+      for (int c = 0; c < channels; ++c) {
+        const std::optional<double> v = parseNumber(words[c]);
+        if (!v) {
+          fail(line, "frame " + std::to_string(frame) + ", value " + std::to_string(c + 1) +
+                         ": not a number: '" + words[c] + "'");
+        }
+        values[c] = *v;
+      }
+      bvh.motion.frames.push_back(std::move(values));
+    }
+    if (static_cast<long>(bvh.motion.frames.size()) != expected) {
+      fail(static_cast<int>(lines_.size()),
+           "'Frames: " + std::to_string(expected) + "' (line " + std::to_string(frames_line) +
+               ") but the file has " + std::to_string(bvh.motion.frames.size()) + " frame lines");
+    }
+  }
+
+  std::string source_;
+  std::vector<std::string> lines_;
+  std::vector<Token> tokens_;
+  std::size_t next_ = 0;
+};
+
+}  // namespace
+
+int BvhSkeleton::jointIndex(const std::string& joint_name) const {
+  for (std::size_t j = 0; j < joints.size(); ++j)
+    if (joints[j].name == joint_name) return static_cast<int>(j);
+  return -1;
+}
+
+int BvhSkeleton::endSiteOf(int j) const {
+  for (std::size_t k = 0; k < joints.size(); ++k)
+    if (joints[k].parent == j && joints[k].is_end_site) return static_cast<int>(k);
+  return -1;
+}
+
+Bvh parseBvh(const std::string& text, const std::string& source) {
+  return Parser(text, source).parse();
+}
+
+Bvh loadBvh(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open BVH file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return parseBvh(buffer.str(), path);
+}
+
+std::vector<Eigen::Vector3d> bvhJointPositions(const BvhSkeleton& skeleton,
+                                               const Eigen::VectorXd& frame) {
+  std::vector<Eigen::Isometry3d> world(skeleton.joints.size());
+  std::vector<Eigen::Vector3d> positions(skeleton.joints.size());
+  for (std::size_t j = 0; j < skeleton.joints.size(); ++j) {
+    const BvhJoint& joint = skeleton.joints[j];
+    Eigen::Vector3d translation = joint.offset;
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    for (std::size_t c = 0; c < joint.channels.size(); ++c) {
+      const double v = frame[joint.first_channel + static_cast<long>(c)];
+      switch (joint.channels[c]) {
+        case BvhChannel::kXposition:
+          translation.x() += v;
+          break;
+        case BvhChannel::kYposition:
+          translation.y() += v;
+          break;
+        case BvhChannel::kZposition:
+          translation.z() += v;
+          break;
+        case BvhChannel::kXrotation:
+          rotation = rotation * Eigen::AngleAxisd(v * kDegToRad, Eigen::Vector3d::UnitX());
+          break;
+        case BvhChannel::kYrotation:
+          rotation = rotation * Eigen::AngleAxisd(v * kDegToRad, Eigen::Vector3d::UnitY());
+          break;
+        case BvhChannel::kZrotation:
+          rotation = rotation * Eigen::AngleAxisd(v * kDegToRad, Eigen::Vector3d::UnitZ());
+          break;
+      }
+    }
+    Eigen::Isometry3d local = Eigen::Isometry3d::Identity();
+    local.translation() = translation;
+    local.linear() = rotation;
+    world[j] = joint.parent < 0 ? local : world[joint.parent] * local;
+    positions[j] = world[j].translation();
+  }
+  return positions;
+}
+
+std::vector<Eigen::Vector3d> bvhRestPositions(const BvhSkeleton& skeleton) {
+  return bvhJointPositions(skeleton, Eigen::VectorXd::Zero(skeleton.channel_count));
+}
+
+}  // namespace mocap
