@@ -2,8 +2,9 @@
 """Plots MPJPE against particle evaluations, one line per method, from the JSON lines that
 experiment_table.py prints on stderr for the human experiment.
 
-  tracker/experiments/plot_human.py [--methods M1,M2,...] docs/human_mpjpe.png \\
-      "clean=walk_hop_clean.jsonl" "realistic, 2 cameras=walk_hop_realistic.jsonl"
+  tracker/experiments/plot_human.py [--methods M1,M2,...] docs/img/human_mpjpe.png \\
+      "clean=tracker/experiments/results/human_clean.jsonl" \\
+      "realistic, 2 cameras=tracker/experiments/results/human_realistic.jsonl"
 
 Each argument is TITLE=FILE; --methods keeps only the rows of those methods. Within a file the rows are split into one panel per motion and per
 camera count (when the grid varied them); the panel's title is TITLE plus those. Needs matplotlib
