@@ -2,6 +2,7 @@
 // counted by what went wrong, --reset-every restarts from the truth, --speed-scale slows only the
 // tracker, --skip-rate leaves frames untracked and unscored, --tracked-body gives the tracker
 // another body than the subject's, and bad flags are refused with their names.
+#include "tests/shared_data.h"
 #include "tracker/experiments/human_experiment.h"
 
 #include <unistd.h>
@@ -27,7 +28,7 @@ HumanExperimentConfig walk(int frames) {
 }
 
 TEST(HumanExperiment, PerLimbErrorsPointAtTheMisplacedArm) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = walk(1);
   config.evaluations = 200;  // one frame cannot bring a 60-degree arm back (20-degree speed limit)
   config.start_offset = "arm60";
@@ -52,7 +53,7 @@ HumanExperimentConfig bodyOffTwoFrames() {
 // --reset-every restarts the tracker from the truth of the frame before: a body 30 cm off at the
 // start is back in the next frame with it, and one frame of search does not bring it back.
 TEST(HumanExperiment, ResetEveryRestartsFromTheTruth) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = bodyOffTwoFrames();
   EXPECT_TRUE(runHumanExperiment(config)["recovery_frames"].is_null());
   config.reset_every = 1;
@@ -76,7 +77,7 @@ TEST(HumanExperiment, LostFramesAreCountedByWhatWentWrongFirst) {
 // Every lost frame has one cause, and with --trace (which scores the truth too) a body 30 cm off
 // after one frame of search is a failure of the search: the truth outscores the estimate.
 TEST(HumanExperiment, LostFramesOfABodyOffAreSearchFailures) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = bodyOffTwoFrames();
   config.trace_path = (std::filesystem::temp_directory_path() /
                        ("human_trace_" + std::to_string(getpid()) + ".csv")).string();
@@ -94,7 +95,7 @@ TEST(HumanExperiment, LostFramesOfABodyOffAreSearchFailures) {
 // --start-offset acquire: no true first pose; the tracker finds the body itself and counts the
 // evaluations of every hypothesis it tries. --start-frame starts the scene later in the motion.
 TEST(HumanExperiment, AcquireFindsTheBodyFromAnyStartFrame) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = walk(2);
   config.evaluations = 300;
   config.start_offset = "acquire";
@@ -116,7 +117,7 @@ TEST(HumanExperiment, AcquireFindsTheBodyFromAnyStartFrame) {
 // Every camera empty for 5 frames: with loss detection the tracker gives up after lost_after of
 // them, gives no pose while nothing is seen, and finds the subject on return.
 TEST(HumanExperiment, ASubjectOutOfViewIsLostAndFoundAgain) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = walk(9);
   config.evaluations = 300;
   config.dropout_at = 2;
@@ -167,7 +168,7 @@ HumanExperimentConfig shortWalk(int frames) {
 // refinement, no injection: every candidate within its speed limit of its parent) allowed a
 // twentieth of the subject's speed fall behind the walk, on the same ground truth.
 TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = shortWalk(25);
   config.filter.injection_share = 0;
   const nlohmann::json as_is = runHumanExperiment(config);
@@ -181,7 +182,7 @@ TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
 }
 
 TEST(HumanExperiment, SkippedFramesAreNeitherTrackedNorScored) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = shortWalk(20);
   config.evaluations = 300;
   const nlohmann::json every = runHumanExperiment(config);
@@ -199,7 +200,7 @@ TEST(HumanExperiment, SkippedFramesAreNeitherTrackedNorScored) {
 // The shipped body is far off the walk's (smaller) subject even at the true angles; the body
 // fitted to the subject standing in the fit pose first is much nearer, with its build reported.
 TEST(HumanExperiment, TheTrackedBodyIsTheSubjectsTheFilesOrOneFittedToTheSubject) {
-  if (!std::filesystem::exists(kWalk)) GTEST_SKIP() << kWalk << " not found";
+  REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = walk(10);
   const nlohmann::json own = runHumanExperiment(config);
   config.tracked_body = "default";

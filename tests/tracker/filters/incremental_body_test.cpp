@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/shared_data.h"
 #include "tests/tracker/filters/filter_test_support.h"
 #include "tracker/model/builtin_models.h"
 #include "tracker/motion/bvh.h"
@@ -93,8 +94,7 @@ TEST(IncrementalBodyEvaluator, HandTrialsOnTwoThreadsMatchTheFullEvaluation) {
 // rig), at half the resolution.
 TEST(IncrementalBodyEvaluator, HumanTrialsMatchTheFullEvaluation) {
   const std::string path = std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh";
-  if (!std::filesystem::exists(path))
-    GTEST_SKIP() << "shared motion data not found (configure with -DMOCAP_SHARED_DIR=...)";
+  REQUIRE_SHARED_FILE(path);
   const Bvh bvh = loadBvh(path);
   const BodyModel model = fitModelToBvh(builtinHumanModel(), bvh.skeleton);
   const Motion motion = retargetBvh(model, bvh.skeleton, bvh.motion, 25, 10).motion;

@@ -1,5 +1,6 @@
 // BVH reading: the shared CMU files, forward kinematics against hand-computed positions in two
 // rotation orders, and malformed files rejected with file:line messages.
+#include "tests/shared_data.h"
 #include "tracker/motion/bvh.h"
 
 #include <gmock/gmock.h>
@@ -12,7 +13,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-const std::string kMotionDir = std::string(MOCAP_SHARED_DIR) + "/data/motion/";
+const std::string kMotionDir = testing_support::kSharedMotionDir;
 
 // Hips (ZYX) with one child joint (ZXY) and an End Site; one frame.
 constexpr const char* kSmall = R"(HIERARCHY
@@ -68,9 +69,7 @@ TEST(Bvh, ForwardKinematicsComposesChannelsInFileOrder) {
 }
 
 TEST(Bvh, ReadsTheSharedCmuFiles) {
-  if (!std::filesystem::exists(kMotionDir + "cmu_131_01_walk.bvh"))
-    GTEST_SKIP() << "shared motion data not found in " << kMotionDir
-                 << " (configure with -DMOCAP_SHARED_DIR=...)";
+  REQUIRE_SHARED_FILE(kMotionDir + "cmu_131_01_walk.bvh");
   const Bvh walk = loadBvh(kMotionDir + "cmu_131_01_walk.bvh");
   const Bvh hop = loadBvh(kMotionDir + "cmu_131_03_hop.bvh");
   for (const Bvh* bvh : {&walk, &hop}) {

@@ -1,5 +1,6 @@
 // Retargeting CMU motion onto the human model: time resampling, the body fitted to the subject's
 // bone lengths, the IK residual on the real walk, joint limits, and IK recovering a known pose.
+#include "tests/shared_data.h"
 #include "tracker/motion/retarget.h"
 
 #include <gtest/gtest.h>
@@ -13,17 +14,13 @@
 namespace mocap {
 namespace {
 
-const std::string kMotionDir = std::string(MOCAP_SHARED_DIR) + "/data/motion/";
+const std::string kMotionDir = testing_support::kSharedMotionDir;
 
 BodyModel humanModel() {
   return loadBodyModel(std::string(MOCAP_SOURCE_DIR) + "/tracker/models/human.yaml");
 }
 
-// Skips the calling test when the shared motion files are absent.
-#define REQUIRE_SHARED_MOTION(file)                                \
-  if (!std::filesystem::exists(kMotionDir + (file)))               \
-  GTEST_SKIP() << "shared motion data not found in " << kMotionDir \
-               << " (configure with -DMOCAP_SHARED_DIR=...)"
+#define REQUIRE_SHARED_MOTION(file) REQUIRE_SHARED_FILE(kMotionDir + (file))
 
 TEST(Retarget, ResamplesByTime) {
   // 995 frames at 120 Hz last 994/120 = 8.283 s: frames at 0, 0.04, ... 8.28 s.
