@@ -24,15 +24,14 @@ TEST(Likelihood, CountsMatchedAndOutsidePixels) {
   image(cv::Rect(10, 10, 40, 40)) = 255;  // silhouette: x, y in [10, 50)
   const SilhouetteMask mask(image);
   std::vector<RowSpan> s;
-  const Footprint f = rect(30, 70, 20, 30, s);  // 40 x 10, half on the silhouette
+  const Footprint f = rect(30, 80, 20, 30, s);  // 50 x 10, 20 x 10 of it on the silhouette
   const PixelCounts c = countFootprint(mask, f, nullptr, 0);
-  EXPECT_EQ(c.area, 400);
+  EXPECT_EQ(c.area, 500);
   EXPECT_EQ(c.matched, 200);
-  EXPECT_EQ(c.outside, 200);
+  EXPECT_EQ(c.outside, 300);
   LikelihoodParams p;
   p.beta = 0.5;
-  p.outside_weight = 2.0;
-  EXPECT_DOUBLE_EQ(logLikelihood(p, c), 0.5 * (200 - 2.0 * 200));
+  EXPECT_DOUBLE_EQ(logLikelihood(p, c), 0.5 * (200 - 300));
 }
 
 TEST(Likelihood, APixelExplainedOnceIsNotCountedTwice) {
