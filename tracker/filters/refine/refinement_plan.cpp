@@ -1,0 +1,28 @@
+// Builds the refinement's plan: each move finds what it needs in the model.
+#include "tracker/filters/refine/refinement_plan.h"
+
+#include <cmath>
+#include <utility>
+
+namespace mocap {
+
+RefinementPlan makeRefinementPlan(const BodyModel& model, const FilterOptions& options,
+                                  int evaluations, std::vector<int> dofs,
+                                  const std::vector<std::vector<int>>& descendants) {
+  RefinementPlan plan;
+  plan.evaluations = evaluations;
+  plan.dofs = std::move(dofs);
+  plan.held.resize(plan.dofs.size());
+  if (options.refine_hold) plan.held = findHeldChildren(model, plan.dofs);
+  if (options.refine_plant || options.refine_unexplained) plan.legs = findLegs(model);
+  if (options.refine_swap) plan.swap = findSwappedLegs(model, options.refine_swap_knees_only);
+  if (options.refine_restart_share > 0) plan.restart_limbs = findRestartLimbs(model, descendants);
+  if (options.refine_facing_prior > 0)
+    plan.facing = makeFacingPrior(model, options.refine_facing_prior);
+  // Each draw is followed by up to 3 poses of local search.
+  plan.restart_draws =
+      static_cast<int>(std::lround(options.refine_restart_share * evaluations / 4));
+  return plan;
+}
+
+}  // namespace mocap
