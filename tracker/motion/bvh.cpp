@@ -2,6 +2,7 @@
 // not care about line breaks there); the MOTION section is read line by line, one frame a line.
 #include "tracker/motion/bvh.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -251,15 +252,19 @@ int BvhSkeleton::endSiteOf(int j) const {
 }
 
 Bvh parseBvh(const std::string& text, const std::string& source) {
-  return Parser(text, source).parse();
+  Bvh bvh = Parser(text, source).parse();
+  bvh.skeleton.source = source;
+  return bvh;
 }
 
-Bvh loadBvh(const std::string& path) {
+Bvh loadBvh(const std::string& path, const BvhLoadOptions& options) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open BVH file");
   std::stringstream buffer;
   buffer << in.rdbuf();
-  return parseBvh(buffer.str(), path);
+  Bvh bvh = parseBvh(buffer.str(), path);
+  prepareBvh(bvh, options);
+  return bvh;
 }
 
 std::vector<Eigen::Vector3d> bvhJointPositions(const BvhSkeleton& skeleton,
@@ -304,6 +309,171 @@ std::vector<Eigen::Vector3d> bvhJointPositions(const BvhSkeleton& skeleton,
 
 std::vector<Eigen::Vector3d> bvhRestPositions(const BvhSkeleton& skeleton) {
   return bvhJointPositions(skeleton, Eigen::VectorXd::Zero(skeleton.channel_count));
+}
+
+}  // namespace mocap
+
+namespace mocap {
+namespace {
+
+struct UnitName {
+  BvhUnits units;
+  const char* name;
+  double metres;
+};
+constexpr UnitName kUnitNames[] = {
+    {BvhUnits::kAuto, "auto", 0},
+    {BvhUnits::kMetres, "m", 1},
+    {BvhUnits::kCentimetres, "cm", 0.01},
+    {BvhUnits::kMillimetres, "mm", 0.001},
+    {BvhUnits::kCmu, "cmu", kCmuMetresPerUnit},
+    {BvhUnits::kInches, "inch", 0.0254},
+};
+
+// An angle's distance from zero, in degrees, whatever number of turns it carries.
+double wrappedDegrees(double degrees) { return std::abs(std::remainder(degrees, 360.0)); }
+
+bool isRotation(BvhChannel c) {
+  return c == BvhChannel::kXrotation || c == BvhChannel::kYrotation || c == BvhChannel::kZrotation;
+}
+
+// A frame of the reference pose: the root's rotation and most joint angles zero.
+bool isReferencePose(const BvhSkeleton& skeleton, const Eigen::VectorXd& frame) {
+  int zero = 0, angles = 0;
+  for (std::size_t j = 0; j < skeleton.joints.size(); ++j) {
+    const BvhJoint& joint = skeleton.joints[j];
+    for (std::size_t c = 0; c < joint.channels.size(); ++c) {
+      if (!isRotation(joint.channels[c])) continue;
+      const bool is_zero = wrappedDegrees(frame[joint.first_channel + static_cast<long>(c)]) < 1e-3;
+      if (joint.parent < 0 && !is_zero) return false;
+      if (joint.parent < 0) continue;
+      zero += is_zero;
+      ++angles;
+    }
+  }
+  return angles > 0 && zero >= 0.75 * angles;
+}
+
+// The mean change of the rotation channels from frame a to frame b, in degrees.
+double meanRotationChange(const BvhSkeleton& skeleton, const Eigen::VectorXd& a,
+                          const Eigen::VectorXd& b) {
+  double sum = 0;
+  int count = 0;
+  for (const BvhJoint& joint : skeleton.joints) {
+    for (std::size_t c = 0; c < joint.channels.size(); ++c) {
+      if (!isRotation(joint.channels[c])) continue;
+      const long k = joint.first_channel + static_cast<long>(c);
+      sum += wrappedDegrees(b[k] - a[k]);
+      ++count;
+    }
+  }
+  return count ? sum / count : 0;
+}
+
+}  // namespace
+
+BvhUnits parseBvhUnits(const std::string& text) {
+  std::string names;
+  for (const UnitName& u : kUnitNames) {
+    if (text == u.name) return u.units;
+    names += std::string(names.empty() ? "" : ", ") + u.name;
+  }
+  throw std::invalid_argument("BVH units: expected one of " + names + ", got '" + text + "'");
+}
+
+const char* bvhUnitsName(BvhUnits units) {
+  for (const UnitName& u : kUnitNames)
+    if (u.units == units) return u.name;
+  return "?";
+}
+
+double metresPerUnit(BvhUnits units) {
+  if (units == BvhUnits::kAuto)
+    throw std::invalid_argument("metresPerUnit: 'auto' is no unit; detect it (detectBvhUnits)");
+  for (const UnitName& u : kUnitNames)
+    if (u.units == units) return u.metres;
+  throw std::invalid_argument("metresPerUnit: unknown BvhUnits value");
+}
+
+double bvhRestSize(const BvhSkeleton& skeleton) {
+  const std::vector<Eigen::Vector3d> rest = bvhRestPositions(skeleton);
+  if (rest.empty()) return 0;
+  Eigen::Vector3d low = rest[0], high = rest[0];
+  for (const Eigen::Vector3d& p : rest) {
+    low = low.cwiseMin(p);
+    high = high.cwiseMax(p);
+  }
+  return (high - low).maxCoeff();
+}
+
+BvhUnits detectBvhUnits(const BvhSkeleton& skeleton) {
+  constexpr double kPersonSize = 1.7;  // metres
+  const double size = bvhRestSize(skeleton);
+  BvhUnits best = BvhUnits::kMetres;
+  double best_distance = INFINITY;
+  for (BvhUnits units :
+       {BvhUnits::kMetres, BvhUnits::kCentimetres, BvhUnits::kMillimetres, BvhUnits::kCmu}) {
+    const double distance = std::abs(std::log(size * metresPerUnit(units) / kPersonSize));
+    if (distance < best_distance) {
+      best = units;
+      best_distance = distance;
+    }
+  }
+  const double metres = size * metresPerUnit(best);
+  if (!(metres >= 0.5 && metres <= 3.5)) {
+    std::ostringstream msg;
+    msg << skeleton.source << ": cannot tell the length unit: the skeleton's rest pose is " << size
+        << " units across, no person's size in m, cm, mm or CMU units; force the units";
+    throw std::runtime_error(msg.str());
+  }
+  return best;
+}
+
+int referencePoseFrames(const BvhSkeleton& skeleton, const BvhMotion& motion) {
+  constexpr int kMotionSample = 10;  // frames after the reference pose whose change sets the scale
+  const int frames = static_cast<int>(motion.frames.size());
+  int reference = 0;
+  while (reference + 2 < frames && isReferencePose(skeleton, motion.frames[reference])) ++reference;
+  if (reference == 0) return 0;
+  const double jump =
+      meanRotationChange(skeleton, motion.frames[reference - 1], motion.frames[reference]);
+  std::vector<double> changes;
+  for (int k = reference; k + 1 < frames && k < reference + kMotionSample; ++k)
+    changes.push_back(meanRotationChange(skeleton, motion.frames[k], motion.frames[k + 1]));
+  std::nth_element(changes.begin(), changes.begin() + changes.size() / 2, changes.end());
+  const double motion_change = changes[changes.size() / 2];
+  return jump > 2 && jump > 5 * motion_change ? reference : 0;
+}
+
+void prepareBvh(Bvh& bvh, const BvhLoadOptions& options) {
+  if (options.metres_per_unit < 0 || !std::isfinite(options.metres_per_unit))
+    throw std::invalid_argument("BVH metres per unit: expected a positive factor");
+  const double factor = options.metres_per_unit > 0 ? options.metres_per_unit
+                        : options.units == BvhUnits::kAuto
+                            ? metresPerUnit(detectBvhUnits(bvh.skeleton))
+                            : metresPerUnit(options.units);
+  // A file already in metres is left as read, bit for bit.
+  if (factor != 1) {
+    for (BvhJoint& joint : bvh.skeleton.joints) {
+      joint.offset *= factor;
+      for (std::size_t c = 0; c < joint.channels.size(); ++c) {
+        if (isRotation(joint.channels[c])) continue;
+        for (Eigen::VectorXd& frame : bvh.motion.frames)
+          frame[joint.first_channel + static_cast<long>(c)] *= factor;
+      }
+    }
+  }
+  bvh.metres_per_unit = factor;
+  if (options.skip_reference_pose) {
+    bvh.reference_frames = referencePoseFrames(bvh.skeleton, bvh.motion);
+    bvh.motion.frames.erase(bvh.motion.frames.begin(),
+                            bvh.motion.frames.begin() + bvh.reference_frames);
+  }
+  if (!options.joint_map.empty()) {
+    auto map = std::make_shared<const JointMap>(loadJointMap(options.joint_map));
+    checkJointMap(*map, bvh.skeleton);
+    bvh.skeleton.joint_map = std::move(map);
+  }
 }
 
 }  // namespace mocap

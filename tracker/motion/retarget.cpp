@@ -1,6 +1,5 @@
-// CMU BVH -> body model: correspondence, axis map, body fitting and inverse-kinematics retargeting.
+// BVH -> body model: correspondence, axis map, body fitting and inverse-kinematics retargeting.
 #include "tracker/motion/retarget.h"
-
 
 #include <algorithm>
 #include <cmath>
@@ -12,19 +11,6 @@
 #include "tracker/model/kinematics.h"
 
 namespace mocap {
-
-const std::vector<JointCorrespondence> kCmuCorrespondence = {
-    {"pelvis", "Hips"},         {"neck", "Neck"},
-    {"head_top", "Head", true}, {"l_hip", "LeftHip"},
-    {"l_knee", "LeftKnee"},     {"l_ankle", "LeftAnkle"},
-    {"l_toe", "LeftToe"},       {"r_hip", "RightHip"},
-    {"r_knee", "RightKnee"},    {"r_ankle", "RightAnkle"},
-    {"r_toe", "RightToe"},      {"l_shoulder", "LeftShoulder"},
-    {"l_elbow", "LeftElbow"},   {"l_wrist", "LeftWrist"},
-    {"l_hand", "LFingers"},     {"r_shoulder", "RightShoulder"},
-    {"r_elbow", "RightElbow"},  {"r_wrist", "RightWrist"},
-    {"r_hand", "RFingers"},
-};
 
 namespace {
 
@@ -97,24 +83,13 @@ void fitLimbSegment(BodyModel& model, int proximal, int distal, double length) {
 }  // namespace
 
 std::vector<int> correspondingBvhJoints(const BodyModel& model, const BvhSkeleton& skeleton) {
+  const JointMap& map = skeleton.joint_map ? *skeleton.joint_map : recogniseJointMap(skeleton);
+  std::vector<std::string> model_points;
+  for (const BodyPoint& p : model.points) model_points.push_back(p.name);
+  checkJointMap(map, skeleton, model_points);
   std::vector<int> joints(model.points.size(), -1);
-  for (const JointCorrespondence& c : kCmuCorrespondence) {
-    const int p = requirePoint(model, c.model_point);
-    int j = skeleton.jointIndex(c.bvh_joint);
-    if (j < 0)
-      throw std::runtime_error(std::string("BVH skeleton has no joint '") + c.bvh_joint +
-                               "' (for model point '" + c.model_point + "')");
-    if (c.end_site) {
-      j = skeleton.endSiteOf(j);
-      if (j < 0)
-        throw std::runtime_error(std::string("BVH joint '") + c.bvh_joint +
-                                 "' has no End Site (for model point '" + c.model_point + "')");
-    }
-    joints[p] = j;
-  }
-  for (std::size_t p = 0; p < joints.size(); ++p)
-    if (joints[p] < 0)
-      throw std::runtime_error("model point '" + model.points[p].name + "' has no CMU joint");
+  for (const JointCorrespondence& c : map.joints)
+    joints[model.pointIndex(c.model_point)] = skeleton.jointIndex(c.bvh_joint);
   return joints;
 }
 

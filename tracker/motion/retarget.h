@@ -1,7 +1,8 @@
-// Mapping real motion capture (CMU BVH skeletons) onto the tracker's body model: which CMU joint is
-// which model point, how the axes of the file map onto the model's, fitting the body's bone lengths
-// to the subject, and retargeting a BVH motion into DOF vectors by inverse kinematics on the
-// corresponding points. This is the ground truth of the human-tracking experiments.
+// Mapping real motion capture (BVH skeletons, in metres: see loadBvh) onto the tracker's body
+// model: which joint is which model point (joint_map.h), how the axes of the file map onto the
+// model's, fitting the body's bone lengths to the subject, and retargeting a BVH motion into DOF
+// vectors by inverse kinematics on the corresponding points. This is the ground truth of the
+// human-tracking experiments.
 #pragma once
 
 #include <string>
@@ -15,21 +16,9 @@
 
 namespace mocap {
 
-// One model point and the CMU joint it sits on. `end_site`: the point is that joint's End Site.
-struct JointCorrespondence {
-  const char* model_point;
-  const char* bvh_joint;
-  bool end_site = false;
-};
-
-// The 19 points of the human model on the CMU 31-joint skeleton (as converted by B. Hahne).
-// "neck" is CMU's Neck (the base of the upper neck), not lowerneck: Neck sits at the height of the
-// shoulder joints, as the model's neck does, whereas lowerneck coincides with the top of the
-// thorax (Chest2) about 8 cm below the shoulder line, which the model's rigid chest cannot match.
-extern const std::vector<JointCorrespondence> kCmuCorrespondence;
-
-// The BVH joint (or End Site) index of every model point, in model point order. Throws
-// std::runtime_error naming the point or joint the skeleton lacks.
+// The BVH joint (or End Site) index of every model point, in model point order, by the skeleton's
+// joint map (BvhSkeleton::joint_map) or, without one, by its recognised naming (bvh11 or
+// cgspeed, joint_map.h). Throws std::runtime_error naming the joints that cannot be mapped.
 std::vector<int> correspondingBvhJoints(const BodyModel& model, const BvhSkeleton& skeleton);
 
 // The orthogonal map from the BVH file's axes to the model's: BVH's up (+Y) onto the model

@@ -1,10 +1,11 @@
 // Retargeting CMU motion onto the human model: time resampling, the body fitted to the subject's
 // bone lengths, the IK residual on the real walk, joint limits, and IK recovering a known pose.
-#include "tests/shared_data.h"
 #include "tracker/motion/retarget.h"
+#include "tests/shared_data.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <random>
@@ -66,6 +67,46 @@ TEST(Retarget, AxisMapTakesYUpToZUp) {
   EXPECT_TRUE((axes.rotation * axes.rotation.transpose()).isIdentity(1e-12));
 }
 
+// The common CMU release's files (cgspeed naming, CMU units, a reference T-pose first) give a body
+// of a person's size that stands on the floor and starts in the motion, not in the T-pose.
+TEST(Retarget, CgspeedFilesGiveAPlausibleBodyOnTheFloor) {
+  const BodyModel model = humanModel();
+  for (const char* file :
+       {"cmu_104_02_walk.bvh", "cmu_16_20_walk_turn.bvh", "cmu_111_23_run.bvh"}) {
+    REQUIRE_SHARED_MOTION(file);
+    const Bvh bvh = loadBvh(kMotionDir + file);
+    const BodyModel fitted = fitModelToBvh(model, bvh.skeleton);
+    KinematicsData data(fitted);
+    forwardKinematics(fitted, data, fitted.neutralPose());
+    std::vector<Eigen::Vector3d> p = pointPositions(fitted, data);
+    auto at = [&](const char* point) { return p[fitted.pointIndex(point)]; };
+    const double hip_height = 0.5 * (at("l_hip").z() + at("r_hip").z());
+    EXPECT_GT(hip_height, 0.8) << file;
+    EXPECT_LT(hip_height, 1.1) << file;
+
+    const RetargetResult result = retargetBvh(fitted, bvh.skeleton, bvh.motion, 25, 50);
+    std::vector<double> lowest;
+    for (std::size_t k = 0; k < result.motion.size(); ++k) {
+      forwardKinematics(fitted, data, result.motion[k]);
+      p = pointPositions(fitted, data);
+      lowest.push_back(
+          std::min({at("l_ankle").z(), at("r_ankle").z(), at("l_toe").z(), at("r_toe").z()}));
+      if (k == 0) {
+        // Arms down in the motion; in the T-pose the wrists are at the shoulders' height.
+        EXPECT_LT(at("l_wrist").z(), at("l_shoulder").z() - 0.3) << file;
+        EXPECT_LT(at("r_wrist").z(), at("r_shoulder").z() - 0.3) << file;
+        EXPECT_LT(*std::max_element(result.residual_mm[0].begin(), result.residual_mm[0].end()), 75)
+            << file;
+      }
+    }
+    std::sort(lowest.begin(), lowest.end());
+    std::cout << file << ": hip height " << hip_height << " m, lowest foot point from "
+              << lowest.front() << " to " << lowest.back() << " m\n";
+    EXPECT_GT(lowest.front(), -0.05) << file;           // never under the floor
+    EXPECT_LT(lowest[lowest.size() / 2], 0.1) << file;  // a foot on it
+  }
+}
+
 TEST(Retarget, IkRecoversAKnownPose) {
   const BodyModel model = humanModel();
   std::mt19937 rng(7);
@@ -124,7 +165,8 @@ TEST(Retarget, IkStaysInsideTheLimits) {
 // 32.8 mm. Without the warm start (every frame from the initial guess) the means barely change
 // (8.4, 7.9 mm) but limbs land in wrong branches: max 337 mm and 283 mm, so the max bound is the
 // one that catches a broken IK. An IK without limits fits slightly better and fails the limit
-// check.
+// check. The common CMU release's files (cgspeed naming, CMU units), mean / max: walk 5.7 / 20.6
+// mm, walk with a turn 6.5 / 21.0 mm, run 9.1 / 30.1 mm.
 struct MotionCase {
   const char* name;
   const char* file;
@@ -173,7 +215,11 @@ TEST_P(RetargetMotion, FollowsTheSubjectWithinLimits) {
 
 INSTANTIATE_TEST_SUITE_P(Cmu, RetargetMotion,
                          ::testing::Values(MotionCase{"Walk", "cmu_131_01_walk.bvh", 10, 75},
-                                           MotionCase{"Hop", "cmu_131_03_hop.bvh", 10, 75}),
+                                           MotionCase{"Hop", "cmu_131_03_hop.bvh", 10, 75},
+                                           MotionCase{"CgspeedWalk", "cmu_104_02_walk.bvh", 12, 60},
+                                           MotionCase{"CgspeedWalkTurn", "cmu_16_20_walk_turn.bvh",
+                                                      12, 60},
+                                           MotionCase{"CgspeedRun", "cmu_111_23_run.bvh", 12, 60}),
                          [](const ::testing::TestParamInfo<MotionCase>& param_info) {
                            return std::string(param_info.param.name);
                          });
