@@ -7,6 +7,11 @@
 //
 // Live mode drops stale work between stages (latest wins); replay mode loses nothing and its
 // poses depend only on the recorded frames and the filter's seed.
+//
+// The pipeline owns the threads and wires the components the mask thread drives: the background
+// manager (each camera's silhouette source, background capture and persistence), the body-fit job
+// (FitBody) and the recording control (the recorder tap, StartRecording and StopRecording). Its
+// public methods are called from the service's threads unless they say otherwise.
 #pragma once
 
 #include <atomic>
@@ -20,38 +25,28 @@
 #include <vector>
 
 #include "drivers/camera_driver.h"
-#include "drivers/record/recorder.h"
 #include "drivers/record/session_reader.h"
 #include "drivers/sync/frame_synchronizer.h"
+#include "server/background_manager.h"
+#include "server/body_fit_job.h"
 #include "server/config.h"
 #include "server/handoff.h"
+#include "server/opened_camera.h"
 #include "server/pose.h"
 #include "server/pose_publisher.h"
+#include "server/recording_control.h"
+#include "server/silhouette_source.h"
 #include "server/stats.h"
-#include "tracker/search/acquire.h"
-#include "tracker/model/body_model.h"
-#include "tracker/search/body_size.h"
-#include "tracker/model/camera.h"
 #include "tracker/filters/filter.h"
-#include "tracker/model/kinematics.h"
-#include "tracker/likelihood/silhouette_mask.h"
-#include "tracker/vision/background_model.h"
-#include "tracker/vision/silhouette_extractor.h"
 #include "tracker/filters/worker_pool.h"
+#include "tracker/likelihood/silhouette_mask.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/camera.h"
+#include "tracker/model/kinematics.h"
+#include "tracker/search/acquire.h"
+#include "tracker/vision/background_model.h"
 
 namespace mocap {
-
-// A camera of the rig: the configuration it was opened with, what its driver says of it, and the
-// camera itself (null when a recorded session stands in for it).
-struct OpenedCamera {
-  CameraConfig config;
-  CameraInfo info;
-  std::unique_ptr<Camera> camera;
-};
-
-// The silhouettes of frame `frame_sequence` on every camera, when the source knows them (the fake
-// scene's ground truth); empty otherwise.
-using GroundTruthSilhouettes = std::function<std::vector<cv::Mat>(uint64_t frame_sequence)>;
 
 struct PipelineInputs {
   std::vector<OpenedCamera> cameras;
@@ -75,8 +70,8 @@ struct PipelineInputs {
   std::shared_ptr<const BodyModel> fit_model;
   // Where the subject starts; empty: the model's neutral pose.
   Eigen::VectorXd initial_pose;
-  // Instead: the tracker finds the subject in the first frame sets (tracker/search/acquire.h). Needs a
-  // body whose root can be placed (canAcquire).
+  // Instead: the tracker finds the subject in the first frame sets (tracker/search/acquire.h).
+  // Needs a body whose root can be placed (canAcquire).
   bool acquire = false;
 };
 
@@ -87,13 +82,6 @@ struct CameraRuntimeStatus {
   // Where its silhouettes come from: "ground truth", "threshold" (with the reason when a saved
   // background was refused), "background captured" or "background loaded from <file>".
   std::string silhouettes;
-};
-
-struct RecordingStatus {
-  bool active = false;
-  std::string path;  // relative to the recording directory
-  uint64_t frame_sets = 0;
-  int64_t started_wall_ns = 0;
 };
 
 struct PipelineStatus {
@@ -114,64 +102,6 @@ struct PipelineStatus {
   RecordingStatus recording;
   // Saved backgrounds refused or ignored at start-up, one line each naming the file (also logged).
   std::vector<std::string> background_warnings;
-};
-
-// Why a recording request failed, so the service can pick the gRPC code.
-enum class RecordingError {
-  kNone,
-  kBadPath,
-  kOutsideRoot,
-  kNotConfigured,
-  kBusy,
-  kNotRecording,
-  kIo
-};
-struct RecordingResult {
-  RecordingError error = RecordingError::kNone;
-  std::string message;
-  RecordingStatus status;
-};
-
-// Why a background capture failed, so the service can pick the gRPC code.
-// kNotSaved: learned and in use, but a file of background_directory could not be written.
-enum class BackgroundError { kNone, kReplay, kBusy, kStalled, kStopped, kUnusable, kNotSaved };
-struct BackgroundResult {
-  BackgroundError error = BackgroundError::kNone;
-  std::string message;
-  int frames_used = 0;  // per camera
-  // Learned and in use, but doubtful: a camera whose image changed during the capture, or differs
-  // from the background it replaced.
-  std::vector<std::string> warnings;
-};
-
-// Why a body fit failed, so the service can pick the gRPC code. kCannotFit: the body has no
-// fit_pose or its root cannot be placed; kCannotApply: asked to apply it in a replay or while a
-// recording is open; kNoSubject: none found in the frame sets; kStalled: no frame set with
-// silhouettes from every camera for a while; kFailed: the fit threw.
-enum class BodyFitError {
-  kNone,
-  kCannotFit,
-  kCannotApply,
-  kBusy,
-  kNoSubject,
-  kStalled,
-  kStopped,
-  kFailed
-};
-struct FitBodyResult {
-  BodyFitError error = BodyFitError::kNone;
-  std::string message;
-  int frame_sets_used = 0;  // collected, or once fitted, those the subject was found in
-  BodyFit fit;              // without an error
-  BodyModel body;           // the fitted body: the fitted model with fit.proportions
-  double fit_seconds = 0;   // the fit itself, after the frame sets were collected
-  uint32_t body_version = 0;  // applied: the version the tracker tracks it as; else 0
-};
-
-// The body the tracker tracks: the configured one (version 0), or the latest fitted one applied.
-struct TrackedBody {
-  std::shared_ptr<const BodyModel> model;
-  uint32_t version = 0;
 };
 
 class Pipeline {
@@ -219,8 +149,8 @@ class Pipeline {
   void captureBackground(int frames, std::function<void(const BackgroundResult&)> done);
 
   // Fits the body (PipelineInputs::fit_model, else the tracked one) to the subject standing in its
-  // fit_pose (tracker/search/body_size.h fitBodyInPose): the mask thread collects the silhouettes of
-  // `frame_sets` of the sets it hands the tracker, one every half second (so a subject turning
+  // fit_pose (tracker/search/body_size.h fitBodyInPose): the mask thread collects the silhouettes
+  // of `frame_sets` of the sets it hands the tracker, one every half second (so a subject turning
   // in place is seen from several sides), then a thread of its own fits (seconds; the mask and
   // tracker threads go on, and the tracker keeps its body). `done` is called once: at once on a
   // refusal (no fit pose, a root that cannot be placed, a fit under way, the pipeline not running),
@@ -245,7 +175,9 @@ class Pipeline {
   // The file camera `camera`'s background is saved to and loaded from: "<driver>-<camera id>" with
   // characters other than letters, digits, '.', '_' and '-' replaced by '_', then
   // ".background.yml", in the background directory. Empty without one.
-  std::string backgroundFile(std::size_t camera) const;
+  std::string backgroundFile(std::size_t camera) const {
+    return backgrounds_.backgroundFile(camera);
+  }
 
  private:
   struct MaskSet {
@@ -254,80 +186,35 @@ class Pipeline {
     int64_t timestamp_ns = 0;
     std::vector<SilhouetteMask> masks;
   };
-  struct BackgroundCapture {
-    int frames = 0;
-    std::function<void(const BackgroundResult&)> done;
-    std::vector<BackgroundLearner> learners;  // per camera
-    int64_t last_progress_ns = 0;
-  };
-  struct BodyFitCollection {
-    int frame_sets = 0;
-    bool apply = false;
-    int every = 1;  // one set kept out of this many handed to the tracker
-    int seen = 0;
-    std::function<void(const FitBodyResult&)> done;
-    std::vector<std::vector<SilhouetteMask>> frames;
-    int64_t last_progress_ns = 0;
-  };
 
+  // Constructor: throws std::invalid_argument if the rig or the reference body does not match.
+  void checkRig() const;
+  std::unique_ptr<FrameSynchronizer> makeSynchronizer() const;
   void replayLoop();
   void maskLoop();
+  // Mask thread: the silhouettes of `set` into `latest` (a camera without a frame keeps its
+  // previous one); per camera, whether it has silhouettes.
+  void updateSilhouettes(const FrameSet& set, std::vector<SilhouetteMask>& latest,
+                         std::vector<bool>& has_silhouettes, std::vector<bool>& size_warned);
   void trackerLoop();
+  // Tracker thread: the pose of `estimate`, with its error against the truth when known.
+  std::shared_ptr<Pose> makePose(const MaskSet& masks, const FrameEstimate& estimate);
   void publisherLoop();
-  // Foreground where the image is brighter than mid-grey: a lit subject against a dark background,
-  // until a background is captured.
-  static SilhouetteMask thresholdMask(const cv::Mat& image);
-  // Mask thread: feeds a camera's frame to the capture under way.
-  static void learnBackground(BackgroundCapture& capture, std::size_t camera, const cv::Mat& image);
-  // Mask thread: installs the extractors once every camera has its frames, or gives up when none
-  // came for too long. True when the capture is over (its `done` called).
-  bool finishBackground(BackgroundCapture& capture);
-  void endCapture(const std::function<void(const BackgroundResult&)>& done,
-                  const BackgroundResult& result);
-  // Mask thread: adds a set's silhouettes to the collection; once it has them all, starts the fit
-  // thread. True when the collection is over (handed on or given up, its `done` called).
-  bool collectForFit(BodyFitCollection& collection, const std::vector<SilhouetteMask>* masks);
-  // Fit thread.
-  void runBodyFit(BodyFitCollection collection);
-  void endBodyFit(const std::function<void(const FitBodyResult&)>& done,
-                  const FitBodyResult& result);
-  const BodyModel& fitModel() const { return fit_model_ ? *fit_model_ : model_; }
   // Tracker thread: (re)creates filter_ for body_ (an acquiring filter for a body that can be
   // placed, which searches the body's stances and, `in_fit_pose`, its fit pose).
   void makeTrackerFilter(bool in_fit_pose);
   // Tracker thread: tracks with the body applied since the last frame set, finding the subject
   // anew in the fit pose they stand in (see fitBody).
   void switchToAppliedBody();
-  // Constructor: loads what background_directory holds for each camera.
-  void loadBackgrounds();
-  // Mask thread (or the constructor): camera's silhouettes are extracted against `background`
-  // from its next frame on (null: thresholded), and an open recording notes it.
-  void useBackground(std::size_t camera, std::shared_ptr<const BackgroundModel> background,
-                     std::unique_ptr<SilhouetteExtractor> extractor = nullptr);
-  // Mask thread, replay: installs the session's recorded backgrounds due by camera's `frame`.
-  void replayBackgrounds(std::size_t camera, uint64_t frame_sequence);
-  // Saver thread: writes the captured models, then ends the capture with `learned` (its error
-  // set if a file could not be written).
-  void saveBackgrounds(std::vector<std::shared_ptr<const BackgroundModel>> models,
-                       BackgroundResult learned, std::function<void(const BackgroundResult&)> done);
-  // The silhouette source of a camera without a background (config's before_background), and why.
-  std::string withoutBackground(const std::string& why) const;
-  // What becomes of such a camera's images, for messages: "thresholded" or "not tracked".
-  const char* withoutBackgroundIs() const;
-  // What status() reports as camera's silhouette source; ignored when the scene gives the truth.
-  void setSilhouetteSource(std::size_t camera, std::string source);
-  void warnBackground(const std::string& warning);
-  RecordingStatus recordingStatusLocked() const;
 
   const ServerConfig config_;
   const BodyModel& model_;  // as configured: the subject's body without a reference_model_
   const Rig& rig_;
   std::vector<OpenedCamera> cameras_;
   std::shared_ptr<const SessionReader> replay_;
-  GroundTruthSilhouettes ground_truth_;
+  const bool true_silhouettes_;
   std::function<Eigen::VectorXd(uint64_t)> reference_pose_;
   std::shared_ptr<const BodyModel> reference_model_;  // null: the tracked model
-  std::shared_ptr<const BodyModel> fit_model_;        // null: the tracked model
   PosePublisher& publisher_;
   std::unique_ptr<FrameSynchronizer> synchronizer_;
   Handoff<MaskSet> masks_;
@@ -335,18 +222,18 @@ class Pipeline {
   std::function<void(const Pose&)> observer_;
   MaskObserver mask_observer_;
 
-  // The latest body applied by a fit, for trackedBody() and the next recording, and whether the
-  // tracker has yet to switch to it.
-  mutable std::mutex body_mutex_;
-  TrackedBody applied_body_;
-  std::atomic<bool> body_switch_pending_{false};
+  // The components the mask thread drives (declared in this order: the fit job and the background
+  // manager use the recording control).
+  RecordingControl recording_;
+  BodyFitJob body_fit_;
+  BackgroundManager backgrounds_;
   const bool can_acquire_;  // the configured body's root can be placed (fitted ones alike)
 
   // Tracker thread only, after construction.
   std::unique_ptr<WorkerPool> pool_;
   TrackedBody body_;  // the body tracked
   std::unique_ptr<PoseFilter> filter_;
-  AcquiringFilter* acquiring_ = nullptr;  // filter_ itself when the body can be placed
+  AcquiringFilter* acquiring_ = nullptr;               // filter_ itself when the body can be placed
   int earlier_acquisitions_ = 0, earlier_losses_ = 0;  // of the filters of earlier bodies
   KinematicsData kinematics_;
   KinematicsData reference_kinematics_;
@@ -363,46 +250,6 @@ class Pipeline {
   std::atomic<uint64_t> losses_{0};
   mutable std::mutex search_mutex_;
   std::string search_failure_;
-
-  // The recorder tap: the mask thread writes each frame set while a recording is open.
-  mutable std::mutex recording_mutex_;
-  std::unique_ptr<Recorder> recorder_;
-  std::string recording_path_;
-  int64_t recording_started_wall_ns_ = 0;
-  RecordingStatus last_recording_;
-  std::vector<int> camera_cv_types_;  // of the latest frames, -1 before the first
-  // Per camera: the background a recording stores for it (the one its silhouettes are extracted
-  // against, or the scene's with true silhouettes; null: thresholded), and the sequence its next
-  // frame will have at the least (one past the latest).
-  std::vector<std::shared_ptr<const BackgroundModel>> backgrounds_in_use_;
-  std::vector<uint64_t> next_frame_sequences_;
-
-  // A background capture, and a body fit's collection, handed from the requester to the mask
-  // thread under capture_mutex_.
-  std::mutex capture_mutex_;
-  std::unique_ptr<BackgroundCapture> capture_request_;
-  bool capture_busy_ = false;        // requested or under way
-  bool accepting_captures_ = false;  // while the mask thread runs (captures and fits alike)
-  std::unique_ptr<BodyFitCollection> fit_request_;
-  bool fit_busy_ = false;     // requested, collecting or fitting
-  bool fit_applies_ = false;  // that fit will apply its body: no recording may start
-  // Held by fitBody's check that no recording is open and by startRecording throughout, so a
-  // recording never opens with one body while the tracker switches to another.
-  std::mutex session_body_mutex_;
-  // Mask thread only: per camera, null until a background is captured; in replay, per camera, the
-  // index of the first of the session's backgrounds() not installed yet.
-  std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;
-  std::vector<std::size_t> next_replayed_backgrounds_;
-  // Saves a capture's backgrounds; joined before the next one starts and by stop().
-  std::thread save_thread_;
-  // Fits the body; started by the mask thread, joined before the next one starts and by stop(),
-  // which sets stop_fit_ first.
-  std::thread fit_thread_;
-  std::atomic<bool> stop_fit_{false};
-  // Read by status(): where each camera's silhouettes come from, and the start-up warnings.
-  mutable std::mutex silhouette_mutex_;
-  std::vector<std::string> silhouette_sources_;
-  std::vector<std::string> background_warnings_;
 
   std::atomic<bool> running_{false};
   std::atomic<bool> input_closed_{false};
