@@ -41,7 +41,7 @@ struct BvhSkeleton {
 
 struct BvhMotion {
   double frame_time = 0;                // seconds
-  std::vector<Eigen::VectorXd> frames;  // channel values in file order (degrees, file units)
+  std::vector<Eigen::VectorXd> frames;  // channel values, file order (degrees; loadBvh: metres)
 };
 
 struct Bvh {
