@@ -13,4 +13,14 @@ inline constexpr const char* kCalibrateUsage =
     "number, every N-th set used)";
 int runCalibrate(int argc, char** argv);
 
+inline constexpr const char* kBvhUsage =
+    "bvh OUT.bvh (--seconds N | --session DIR) [--units m|cm] [--z-up]\n"
+    "                         poses as a BVH file: N seconds of the daemon's poses, or,\n"
+    "                         without a daemon, a recorded session's true poses (a session\n"
+    "                         stores frames and, from the fake scene, the truth, not the tracked\n"
+    "                         poses: for those, replay it through mocapd and use --seconds).\n"
+    "                         Y up and metres by default, as animation tools import BVH;\n"
+    "                         --units cm: centimetres; --z-up: the daemon's own Z-up frame";
+int runBvh(int argc, char** argv);
+
 }  // namespace mocapctl

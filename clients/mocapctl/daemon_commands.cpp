@@ -1,5 +1,5 @@
 // The mocapctl subcommands that talk to mocapd: stream, status, skeleton, record, reacquire,
-// background, fit-body, bvh, bench.
+// background, fit-body, bench.
 #include "clients/mocapctl/daemon_commands.h"
 
 #include <time.h>
@@ -20,50 +20,13 @@
 #include <google/protobuf/util/json_util.h>
 #include <nlohmann/json.hpp>
 
-#include "clients/mocapctl/bvh_export.h"
+#include "clients/mocapctl/command_flags.h"
 #include "clients/mocapctl/daemon_client.h"
 
 namespace mocapctl {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-long positiveNumber(const std::string& flag, const std::string& text) {
-  try {
-    std::size_t used = 0;
-    const long value = std::stol(text, &used);
-    if (used == text.size() && value > 0) return value;
-  } catch (const std::exception&) {
-  }
-  throw std::runtime_error(flag + ": expected a positive whole number, got '" + text + "'");
-}
-
-// Takes "--name VALUE" out of `args`; empty if absent.
-std::string takeFlag(std::vector<std::string>& args, const std::string& name) {
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] != name) continue;
-    if (i + 1 >= args.size()) throw std::runtime_error(name + " needs a value");
-    std::string value = args[i + 1];
-    args.erase(args.begin() + static_cast<std::ptrdiff_t>(i),
-               args.begin() + static_cast<std::ptrdiff_t>(i) + 2);
-    return value;
-  }
-  return "";
-}
-
-// Takes "--name" out of `args`; whether it was there.
-bool takeSwitch(std::vector<std::string>& args, const std::string& name) {
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] != name) continue;
-    args.erase(args.begin() + static_cast<std::ptrdiff_t>(i));
-    return true;
-  }
-  return false;
-}
-
-void noMoreArguments(const std::vector<std::string>& args) {
-  if (!args.empty()) throw std::runtime_error("unexpected argument '" + args.front() + "'");
-}
 
 std::string toJson(const google::protobuf::Message& message) {
   std::string json;
@@ -78,17 +41,6 @@ int64_t monotonicNowNs() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
-// One line on stderr for commands that run for a while: rewritten in place on a terminal, one line
-// per update when stderr is a file or a pipe.
-void progress(const std::string& text) {
-  static const bool terminal = isatty(STDERR_FILENO) == 1;
-  if (terminal) {
-    std::cerr << "\r" << text << std::flush;
-  } else {
-    std::cerr << text << "\n";
-  }
 }
 
 // Writes `text` to `path` under a hidden temporary name in the same folder, then renames it over
@@ -313,63 +265,6 @@ int runFitBody(int argc, char** argv) {
   std::cout << response.body_model_yaml();
   if (!response.body_model_yaml().empty() && response.body_model_yaml().back() != '\n')
     std::cout << "\n";
-  return 0;
-}
-
-int runBvh(int argc, char** argv) {
-  DaemonFlags flags;
-  std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
-  const std::string seconds_text = takeFlag(args, "--seconds");
-  if (args.size() != 1)
-    throw std::runtime_error("expected one output file: bvh OUT.bvh --seconds N");
-  if (seconds_text.empty()) throw std::runtime_error("--seconds N is required");
-  const long seconds = positiveNumber("--seconds", seconds_text);
-  const std::string out_path = args.front();
-
-  DaemonClient client(flags);
-  mocap::v1::Skeleton skeleton;
-  check(client.stub().GetSkeleton(client.context().get(), {}, &skeleton), "GetSkeleton");
-  std::unique_ptr<grpc::ClientContext> context = client.context();
-  context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
-  mocap::v1::StreamPosesRequest request;
-  // BVH needs only the DOFs: one joint keeps the poses small.
-  if (skeleton.points_size() > 0) request.add_joints(skeleton.points(0).name());
-  std::unique_ptr<grpc::ClientReader<mocap::v1::Pose>> reader =
-      client.stub().StreamPoses(context.get(), request);
-  std::vector<std::vector<double>> frames;
-  int64_t first_capture = 0, last_capture = 0;
-  uint64_t missed = 0;
-  const auto start = Clock::now();
-  auto last_progress = start;
-  mocap::v1::Pose pose;
-  while (reader->Read(&pose)) {
-    if (frames.empty()) first_capture = pose.capture_monotonic_ns();
-    last_capture = pose.capture_monotonic_ns();
-    missed += frames.empty() ? 0 : pose.missed_before();
-    frames.emplace_back(pose.dofs().begin(), pose.dofs().end());
-    if (Clock::now() - last_progress >= std::chrono::seconds(1)) {
-      last_progress = Clock::now();
-      progress(
-          "bvh: " +
-          std::to_string(
-              std::chrono::duration_cast<std::chrono::seconds>(last_progress - start).count()) +
-          "/" + std::to_string(seconds) + " s, " + std::to_string(frames.size()) + " poses");
-    }
-  }
-  const grpc::Status status = reader->Finish();
-  if (status.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED) check(status, "StreamPoses");
-  if (frames.empty()) throw std::runtime_error("no pose arrived in " + seconds_text + " s");
-  // The frame time is the mean capture interval, so the clip plays at the captured pace.
-  const double frame_time = frames.size() > 1
-                                ? static_cast<double>(last_capture - first_capture) / 1e9 /
-                                      static_cast<double>(frames.size() - 1 + missed)
-                                : 0.04;
-  std::ofstream out(out_path);
-  if (!out) throw std::runtime_error(out_path + ": cannot write");
-  writeBvh(out, skeleton, frames, frame_time);
-  if (!out.flush()) throw std::runtime_error(out_path + ": write failed");
-  progress("bvh: wrote " + std::to_string(frames.size()) + " poses to " + out_path + " (" +
-           std::to_string(missed) + " missed)\n");
   return 0;
 }
 

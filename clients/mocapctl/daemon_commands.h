@@ -27,8 +27,6 @@ inline constexpr const char* kFitBodyUsage =
     "                         replacing it atomically; without --out prints that YAML instead,\n"
     "                         the figures as comments at its top; --apply: the daemon also\n"
     "                         tracks with it from then on (until it restarts)";
-inline constexpr const char* kBvhUsage =
-    "bvh OUT.bvh --seconds N  record N seconds of poses as BVH";
 inline constexpr const char* kBenchUsage =
     "bench [--seconds N]      capture-to-pose-on-the-wire latency, sustained pose rate and,\n"
     "                         from the fake scene, the poses' error against the truth";
@@ -40,7 +38,6 @@ int runRecord(int argc, char** argv);
 int runReacquire(int argc, char** argv);
 int runBackground(int argc, char** argv);
 int runFitBody(int argc, char** argv);
-int runBvh(int argc, char** argv);
 int runBench(int argc, char** argv);
 
 }  // namespace mocapctl

@@ -1,5 +1,5 @@
 // mocapctl: command-line client of mocapd. Subcommands are listed once in kCommands; each lives in
-// its own file. Some (calibrate) work without a running daemon.
+// its own file. Some (calibrate, bvh --session) work without a running daemon.
 #include <iostream>
 #include <string>
 
