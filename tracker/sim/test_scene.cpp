@@ -102,8 +102,12 @@ SilhouetteTestScene::SilhouetteTestScene(const TestSceneOptions& options)
       renderer_(model_, rig_),
       rng_(options.seed * 7919 + 17) {
   const cv::Size size(options.width, options.height);
-  renderer_.renderSilhouettes(pose(0), silhouettes_);
-  cv::Rect person = cv::boundingRect(silhouettes_[0]);
+  if (options.person) {
+    options.person(0, rig_[0], layer_);
+  } else {
+    renderer_.renderSilhouettes(pose(0), silhouettes_);
+  }
+  cv::Rect person = cv::boundingRect(options.person ? layer_.mask : silhouettes_[0]);
   feet_row_ = person.empty() ? size.height * 3 / 4 : person.br().y;
   const int horizon = std::clamp(feet_row_ - size.height / 4, 1, size.height - 1);
 
@@ -157,6 +161,38 @@ Eigen::VectorXd SilhouetteTestScene::pose(int t) const {
   return q;
 }
 
+void SilhouetteTestScene::paintBuiltInPerson(double sway, const cv::Mat& body_mask) {
+  // Shirt with stripes above the hips, trousers below, darker toward the outline.
+  const cv::Size size(options_.width, options_.height);
+  cv::distanceTransform(body_mask, distance_, cv::DIST_L2, 3);
+  Eigen::Vector2d hips;
+  const bool hips_seen = rig_[0].project(Eigen::Vector3d(sway, 0, 0.95), hips);
+  const int hip_row = hips_seen ? static_cast<int>(hips.y()) : size.height / 2;
+  for (int y = 0; y < size.height; ++y) {
+    auto* row = shaded_.ptr<cv::Vec3f>(y);
+    const uint8_t* body = body_mask.ptr<uint8_t>(y);
+    const float* inside = distance_.ptr<float>(y);
+    const bool shirt = y < hip_row;
+    const float stripe = shirt && (y / 12) % 2 ? 25.f : 0.f;
+    const cv::Vec3f cloth =
+        shirt ? cv::Vec3f(60 + stripe, 85 + stripe, 170) : cv::Vec3f(120, 75, 45);
+    for (int x = 0; x < size.width; ++x) {
+      if (!body[x]) continue;
+      row[x] = cloth * (0.55f + 0.45f * std::min(1.0f, inside[x] / 12.0f));
+    }
+  }
+}
+
+void SilhouetteTestScene::paintLayer(const cv::Mat& body_mask) {
+  for (int y = 0; y < body_mask.rows; ++y) {
+    auto* row = shaded_.ptr<cv::Vec3f>(y);
+    const uint8_t* body = body_mask.ptr<uint8_t>(y);
+    const cv::Vec3b* colour = layer_.colour.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < body_mask.cols; ++x)
+      if (body[x]) row[x] = cv::Vec3f(colour[x][0], colour[x][1], colour[x][2]);
+  }
+}
+
 void SilhouetteTestScene::render(int t, bool with_person, TestSceneFrame& out) {
   const cv::Size size(options_.width, options_.height);
   wall_.copyTo(shaded_);
@@ -168,8 +204,13 @@ void SilhouetteTestScene::render(int t, bool with_person, TestSceneFrame& out) {
   if (with_person) {
     const Eigen::VectorXd q = pose(t);
     const double sway = q[model_.dofIndex("sway")];
-    renderer_.renderSilhouettes(q, silhouettes_);
-    silhouettes_[0].copyTo(out.body);
+    if (options_.person) {
+      options_.person(t, rig_[0], layer_);
+      layer_.mask.copyTo(out.body);
+    } else {
+      renderer_.renderSilhouettes(q, silhouettes_);
+      silhouettes_[0].copyTo(out.body);
+    }
 
     // Cast shadow: the silhouette sheared sideways and flattened onto the floor from the feet row,
     // with a soft edge (penumbra).
@@ -190,26 +231,18 @@ void SilhouetteTestScene::render(int t, bool with_person, TestSceneFrame& out) {
       }
     }
 
-    // Body: shirt with stripes above the hips, trousers below, darker toward the outline.
-    cv::distanceTransform(out.body, distance_, cv::DIST_L2, 3);
-    Eigen::Vector2d hips;
-    const bool hips_seen = rig_[0].project(Eigen::Vector3d(sway, 0, 0.95), hips);
-    const int hip_row = hips_seen ? static_cast<int>(hips.y()) : size.height / 2;
-    for (int y = 0; y < size.height; ++y) {
-      auto* row = shaded_.ptr<cv::Vec3f>(y);
-      const uint8_t* body = out.body.ptr<uint8_t>(y);
-      const float* inside = distance_.ptr<float>(y);
-      const bool shirt = y < hip_row;
-      const float stripe = shirt && (y / 12) % 2 ? 25.f : 0.f;
-      const cv::Vec3f cloth = shirt ? cv::Vec3f(60 + stripe, 85 + stripe, 170) : cv::Vec3f(120, 75, 45);
-      for (int x = 0; x < size.width; ++x) {
-        if (!body[x]) continue;
-        row[x] = cloth * (0.55f + 0.45f * std::min(1.0f, inside[x] / 12.0f));
-      }
+    if (options_.person) {
+      paintLayer(out.body);
+    } else {
+      paintBuiltInPerson(sway, out.body);
     }
     // Camouflage: a patch on the chest of the wall's average colour there, slightly shifted.
     Eigen::Vector2d chest;
-    if (options_.camouflage && rig_[0].project(Eigen::Vector3d(sway, -0.2, 1.3), chest)) {
+    const Eigen::Vector3d chest_point =
+        options_.person ? layer_.chest.value_or(Eigen::Vector3d::Zero())
+                        : Eigen::Vector3d(sway, -0.2, 1.3);
+    if (options_.camouflage && (!options_.person || layer_.chest) &&
+        rig_[0].project(chest_point, chest)) {
       const int radius = std::max(4, options_.height / 30);
       const cv::Point centre(static_cast<int>(chest.x()), static_cast<int>(chest.y()));
       const cv::Rect box = cv::Rect(centre.x - radius, centre.y - radius, 2 * radius + 1,

@@ -1,15 +1,17 @@
 // A synthetic camera view for testing and measuring silhouette extraction with known truth: a
 // textured wall and tiled floor, a simple articulated person (rendered by the tracker's
-// SceneRenderer) with shading, a cast shadow on the floor, a patch on the body coloured like the
+// SceneRenderer, or any person layer, e.g. a simulated subject) with shading, a cast shadow on the floor, a patch on the body coloured like the
 // background behind it, sensor noise and a slow global illumination change.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 
 #include <opencv2/core.hpp>
 
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
+#include "tracker/sim/person_layer.h"
 #include "tracker/sim/scene.h"
 
 namespace mocap {
@@ -25,6 +27,11 @@ struct TestSceneOptions {
   double shadow_factor = 0.55;              // brightness left in the shadow's core
   bool camouflage = true;                   // a patch on the torso close to the wall's colour
   bool moving = true;                       // false: the person stands still in one pose
+  // Draws the person of frame t (at t = 0 too, before any frame, to place the floor) into the
+  // scene's camera. Empty: the built-in articulated person of pose(t), shirt and trousers painted
+  // by the scene. A painter's layer (mask and colours) replaces it; the shadow, light and noise
+  // fall on it alike, and the camouflage patch goes on layer.chest when it is set.
+  std::function<void(int t, const CameraModel& camera, PersonLayer& layer)> person;
 };
 
 // One generated frame: the image and its truth (body: the person only; shadow: darkened pixels off
@@ -47,6 +54,9 @@ class SilhouetteTestScene {
   Eigen::VectorXd pose(int t) const;
 
  private:
+  void paintBuiltInPerson(double sway, const cv::Mat& body_mask);
+  void paintLayer(const cv::Mat& body_mask);
+
   TestSceneOptions options_;
   BodyModel model_;
   Rig rig_;
@@ -57,6 +67,7 @@ class SilhouetteTestScene {
   int feet_row_ = 0;
   std::vector<cv::Mat> silhouettes_;
   cv::Mat shaded_, shadow_soft_, distance_, noise_, scratch_;
+  PersonLayer layer_;  // the painter's
 };
 
 }  // namespace mocap
