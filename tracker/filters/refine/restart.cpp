@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include "tracker/filters/refine/pose_search.h"
+
 namespace mocap {
 
 std::vector<RestartLimb> findRestartLimbs(const BodyModel& model,

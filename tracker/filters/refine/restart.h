@@ -9,10 +9,12 @@
 
 #include <Eigen/Core>
 
-#include "tracker/filters/refine/pose_search.h"
 #include "tracker/model/body_model.h"
 
 namespace mocap {
+
+class PoseSearch;
+struct MoveScratch;
 
 struct RestartLimb {
   std::vector<int> root_dofs;  // the limb root's free rotation DOFs

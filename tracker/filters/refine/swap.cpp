@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "tracker/filters/refine/pose_search.h"
+
 namespace mocap {
 
 LegSwap findSwappedLegs(const BodyModel& model, bool knees_only) {

@@ -9,10 +9,12 @@
 
 #include <Eigen/Core>
 
-#include "tracker/filters/refine/pose_search.h"
 #include "tracker/model/body_model.h"
 
 namespace mocap {
+
+class PoseSearch;
+struct MoveScratch;
 
 struct LegSwap {
   std::vector<std::pair<int, int>> pairs;  // the DOFs exchanged: one leg's, the other's
