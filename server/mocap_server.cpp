@@ -8,12 +8,11 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
-#include "drivers/fake/fake_driver.h"
+#include "drivers/camera_driver.h"
+#include "drivers/fake/scene_setup.h"
 #include "server/log.h"
-#include "tracker/search/acquire.h"
 #include "tracker/model/builtin_models.h"
-#include "tracker/motion/bvh.h"
-#include "tracker/motion/retarget.h"
+#include "tracker/search/acquire.h"
 
 namespace mocap {
 namespace {
@@ -31,26 +30,12 @@ Expected<std::string> readFile(const std::string& path) {
 
 bool isFakeScene(const CameraConfig& camera) { return camera.driver == "fake"; }
 
-// The fake driver as the daemon configures it: the scene built from the camera list, and the
-// configured model and calibration if any (the scene's defaults otherwise).
-FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel* model,
-                                    const Rig* rig, std::shared_ptr<const Motion> motion) {
-  FakeDriverOptions options;
-  const CameraConfig& first = config.cameras.front();
-  options.scene.cameras = static_cast<int>(config.cameras.size());
-  options.scene.width = first.width;
-  options.scene.height = first.height;
-  options.scene.fps = first.fps;
-  options.scene.gray = first.pixel_format == "GREY";
-  options.scene.seed = config.tracker.seed;
-  if (model) options.scene.model = std::make_shared<const BodyModel>(*model);
-  if (rig) options.scene.rig = *rig;
-  options.scene.motion = std::move(motion);
-  options.scene.empty_frames =
-      static_cast<uint64_t>(std::llround(config.scene_empty_seconds * first.fps));
-  options.scene.fit_pose_frames =
-      static_cast<uint64_t>(std::llround(config.scene_fit_pose_seconds * first.fps));
-  return options;
+OpenedCamera openedCamera(const CameraConfig& config, std::unique_ptr<Camera> camera) {
+  OpenedCamera opened;
+  opened.config = config;
+  opened.camera = std::move(camera);
+  opened.info = opened.camera->info();
+  return opened;
 }
 
 }  // namespace
@@ -58,186 +43,198 @@ FakeDriverOptions fakeDriverOptions(const ServerConfig& config, const BodyModel*
 Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& config) {
   std::unique_ptr<MocapServer> server(new MocapServer(config));
   PipelineInputs inputs;
-  // A model's speed limits are per frame at its frame_rate; the tracker's frames come at the
-  // cameras' rate (the recorded rate in a replay), so the body is tracked rescaled to it.
-  const auto atCameraRate = [&server](double fps) {
-    if (server->model_) *server->model_ = atFrameRate(*server->model_, fps);
-  };
+  Status step = server->loadBodyAndCalibration();
+  if (step.ok()) step = server->loadSceneMotion();
+  if (step.ok()) step = config.replay() ? server->openReplay(inputs) : server->openCameras(inputs);
+  if (step.ok()) step = server->prepareTracking(inputs);
+  if (!step.ok()) return step;
   try {
-    if (config.body_model == "builtin:hand") {
-      server->model_ = std::make_unique<BodyModel>(builtinHandModel());
-    } else if (config.body_model == "builtin:human") {
-      server->model_ = std::make_unique<BodyModel>(builtinHumanModel());
-    } else if (config.body_model_file) {
-      server->model_ = std::make_unique<BodyModel>(*config.body_model_file);
-    } else if (!config.body_model.empty()) {
-      server->model_ = std::make_unique<BodyModel>(loadBodyModel(config.body_model));
-    }
-    if (!config.calibration_file.empty())
-      server->rig_ = std::make_unique<Rig>(loadRig(config.calibration_file));
-    if (!config.replay() && !config.cameras.empty()) atCameraRate(config.cameras.front().fps);
+    server->pipeline_ = std::make_unique<Pipeline>(server->config_, *server->model_, *server->rig_,
+                                                   std::move(inputs), server->publisher_);
   } catch (const std::exception& e) {
     return Status::Error(e.what());
   }
-  std::shared_ptr<const Motion> scene_motion;
-  // The scene's subject, when the tracker tracks another body (track_subject_body: false).
-  std::shared_ptr<const BodyModel> subject_body;
-  if (!config.scene_motion.empty()) {
-    // The body fitted to the recorded subject, so the scene shows that person's proportions
-    // (docs/human.md); the tracker tracks it too, unless told to track the configured body as it
-    // would a real person, whose body nobody fitted beforehand.
-    try {
-      const Bvh bvh = loadBvh(config.scene_motion);
-      const double fps = config.cameras.front().fps;
-      if (!server->model_)
-        server->model_ = std::make_unique<BodyModel>(atFrameRate(builtinHumanModel(), fps));
-      auto fitted = std::make_unique<BodyModel>(fitModelToBvh(*server->model_, bvh.skeleton));
-      scene_motion = std::make_shared<const Motion>(
-          retargetBvh(*fitted, bvh.skeleton, bvh.motion, fps).motion);
-      if (config.track_subject_body)
-        server->model_ = std::move(fitted);
-      else
-        subject_body = std::move(fitted);
-    } catch (const std::exception& e) {
-      return Status::Error(config.source + ": scene_motion: " + e.what());
-    }
-  }
+  server->service_ = std::make_unique<MocapServiceImpl>(server->config_, *server->model_,
+                                                        *server->pipeline_, server->publisher_);
+  step = server->listen();
+  if (!step.ok()) return step;
+  return server;
+}
 
-  if (config.replay()) {
-    Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(config.replay_directory);
-    if (!reader.ok()) return Status::Error("replay: " + reader.error());
-    std::shared_ptr<const SessionReader> session = std::move(reader.value());
-    for (std::size_t c = 0; c < session->cameras().size(); ++c) {
-      const SessionCamera& recorded = session->cameras()[c];
-      OpenedCamera camera;
-      camera.config.index = static_cast<int>(c);
-      camera.config.driver = "replay";
-      camera.config.device = config.replay_directory;
-      camera.config.width = recorded.width;
-      camera.config.height = recorded.height;
-      camera.config.fps = recorded.fps > 0 ? recorded.fps : 25.0;
-      camera.config.pixel_format = recorded.pixel_format;
-      camera.info = {"replay",
-                     recorded.name,
-                     "recorded session camera",
-                     {{recorded.width, recorded.height, recorded.fps, recorded.pixel_format}}};
-      inputs.cameras.push_back(std::move(camera));
+void MocapServer::trackAtCameraRate(double fps) {
+  if (model_) *model_ = atFrameRate(*model_, fps);
+}
+
+Status MocapServer::loadBodyAndCalibration() {
+  const ServerConfig& config = config_;
+  try {
+    if (config.body_model == "builtin:hand") {
+      model_ = std::make_unique<BodyModel>(builtinHandModel());
+    } else if (config.body_model == "builtin:human") {
+      model_ = std::make_unique<BodyModel>(builtinHumanModel());
+    } else if (config.body_model_file) {
+      model_ = std::make_unique<BodyModel>(*config.body_model_file);
+    } else if (!config.body_model.empty()) {
+      model_ = std::make_unique<BodyModel>(loadBodyModel(config.body_model));
     }
-    if (!server->rig_) {
-      if (session->rig().empty())
-        return Status::Error(
-            "replay: the session has no calibration and the configuration "
-            "names no calibration file");
-      server->rig_ = std::make_unique<Rig>(session->rig());
-    }
-    // The body the session was tracked with, unless the configuration names one; sessions that
-    // store none were recorded before bodies were stored, when the daemon tracked the hand.
-    if (!server->model_) {
-      if (session->bodyModel()) {
-        server->model_ = std::make_unique<BodyModel>(*session->bodyModel());
-      } else {
-        logWarning() << "replay: the session stores no body model and the configuration names "
-                        "none; tracking the built-in hand";
-        server->model_ = std::make_unique<BodyModel>(builtinHandModel());
-      }
-    }
-    if (!inputs.cameras.empty()) atCameraRate(inputs.cameras.front().config.fps);
-    // Tracked as it was live: the session's tracker settings, under the keys the configuration
-    // sets itself. Sessions that store none take the configuration's.
-    if (!session->trackerSettings().empty()) {
-      try {
-        server->config_.tracker = replayTrackerSettings(config, session->trackerSettings(),
-                                                        (session->path() / kManifestFile).string());
-      } catch (const ConfigError& e) {
-        return Status::Error(std::string("replay: ") + e.what());
-      }
-    }
-    // The truth's joints on the body it is of (the scene's subject tracked with another body, or
-    // the session's when the configuration names another to track).
-    const BodyModel* truth_body = session->truthBodyModel();
-    if (truth_body && truth_body->dofs.size() == server->model_->dofs.size())
-      inputs.reference_model = std::make_shared<const BodyModel>(*truth_body);
-    inputs.replay = std::move(session);
-  } else {
-    bool any_fake = false, all_fake = true;
-    for (const CameraConfig& camera : config.cameras) {
-      any_fake = any_fake || isFakeScene(camera);
-      all_fake = all_fake && isFakeScene(camera);
-    }
-    if (any_fake && !all_fake)
-      return Status::Error(config.source +
-                           ": cameras: the fake scene cannot be mixed with real cameras");
-    if (any_fake) {
-      FakeDriver driver(fakeDriverOptions(config,
-                                          subject_body ? subject_body.get() : server->model_.get(),
-                                          server->rig_.get(), scene_motion));
-      Expected<std::shared_ptr<FakeScene>> scene = driver.scene();
-      if (!scene.ok()) return Status::Error("fake scene: " + scene.error());
-      std::shared_ptr<FakeScene> shared = scene.value();
-      if (!server->model_) {
-        server->model_ = std::make_unique<BodyModel>(shared->model());
-        atCameraRate(config.cameras.front().fps);
-      }
-      if (!server->rig_) server->rig_ = std::make_unique<Rig>(shared->rig());
-      for (const CameraConfig& camera_config : config.cameras) {
-        Expected<std::unique_ptr<Camera>> opened = driver.open(camera_config);
-        if (!opened.ok()) {
-          return Status::Error("cameras[" + std::to_string(camera_config.index) + "] (fake " +
-                               camera_config.device + "): " + opened.error());
-        }
-        OpenedCamera camera;
-        camera.config = camera_config;
-        camera.camera = std::move(opened.value());
-        camera.info = camera.camera->info();
-        inputs.cameras.push_back(std::move(camera));
-      }
-      // The demo measures tracking: the tracker sees the scene's true silhouettes unless the
-      // configuration asks for them to be extracted from the rendered images.
-      if (config.true_silhouettes) {
-        inputs.ground_truth = [shared](uint64_t sequence) {
-          return shared->groundTruth(sequence).silhouettes;
-        };
-        for (std::size_t c = 0; c < inputs.cameras.size(); ++c) {
-          auto empty = std::make_shared<BackgroundModel>();
-          shared->background(static_cast<int>(c)).convertTo(empty->mean, CV_32F);
-          empty->stddev = cv::Mat(empty->mean.size(), empty->mean.type(),
-                                  cv::Scalar::all(shared->options().noise_sigma));
-          inputs.scene_backgrounds.push_back(std::move(empty));
-        }
-      }
-      inputs.reference_pose = [shared](uint64_t sequence) { return shared->truePose(sequence); };
-      inputs.reference_model = subject_body;
-      // The subject's first pose in view, as a real session would give it by a start-up pose.
-      inputs.initial_pose = shared->truePose(shared->options().empty_frames);
+    if (!config.calibration_file.empty())
+      rig_ = std::make_unique<Rig>(loadRig(config.calibration_file));
+    if (!config.replay() && !config.cameras.empty()) trackAtCameraRate(config.cameras.front().fps);
+  } catch (const std::exception& e) {
+    return Status::Error(e.what());
+  }
+  return Status::Ok();
+}
+
+Status MocapServer::loadSceneMotion() {
+  if (config_.scene_motion.empty()) return Status::Ok();
+  // The body fitted to the recorded subject, so the scene shows that person's proportions
+  // (docs/human.md); the tracker tracks it too, unless told to track the configured body as it
+  // would a real person, whose body nobody fitted beforehand.
+  try {
+    const double fps = config_.cameras.front().fps;
+    if (!model_) model_ = std::make_unique<BodyModel>(atFrameRate(builtinHumanModel(), fps));
+    SceneSubject subject = loadSceneSubject(config_.scene_motion, *model_, fps);
+    scene_motion_ = std::move(subject.motion);
+    if (config_.track_subject_body)
+      model_ = std::make_unique<BodyModel>(*subject.body);
+    else
+      subject_body_ = std::move(subject.body);
+  } catch (const std::exception& e) {
+    return Status::Error(config_.source + ": scene_motion: " + e.what());
+  }
+  return Status::Ok();
+}
+
+Status MocapServer::openReplay(PipelineInputs& inputs) {
+  const ServerConfig& config = config_;
+  Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(config.replay_directory);
+  if (!reader.ok()) return Status::Error("replay: " + reader.error());
+  std::shared_ptr<const SessionReader> session = std::move(reader.value());
+  for (std::size_t c = 0; c < session->cameras().size(); ++c) {
+    const SessionCamera& recorded = session->cameras()[c];
+    OpenedCamera camera;
+    camera.config.index = static_cast<int>(c);
+    camera.config.driver = "replay";
+    camera.config.device = config.replay_directory;
+    camera.config.width = recorded.width;
+    camera.config.height = recorded.height;
+    camera.config.fps = recorded.fps > 0 ? recorded.fps : 25.0;
+    camera.config.pixel_format = recorded.pixel_format;
+    camera.info = {"replay",
+                   recorded.name,
+                   "recorded session camera",
+                   {{recorded.width, recorded.height, recorded.fps, recorded.pixel_format}}};
+    inputs.cameras.push_back(std::move(camera));
+  }
+  if (!rig_) {
+    if (session->rig().empty())
+      return Status::Error(
+          "replay: the session has no calibration and the configuration "
+          "names no calibration file");
+    rig_ = std::make_unique<Rig>(session->rig());
+  }
+  // The body the session was tracked with, unless the configuration names one; sessions that
+  // store none were recorded before bodies were stored, when the daemon tracked the hand.
+  if (!model_) {
+    if (session->bodyModel()) {
+      model_ = std::make_unique<BodyModel>(*session->bodyModel());
     } else {
-      if (!server->model_)
-        return Status::Error(config.source + ": body_model: required with real cameras");
-      if (!server->rig_)
-        return Status::Error(config.source + ": calibration: required with real cameras");
-      for (const CameraConfig& camera_config : config.cameras) {
-        std::unique_ptr<Driver> driver = DriverRegistry::instance().create(camera_config.driver);
-        if (!driver)
-          return Status::Error("cameras[" + std::to_string(camera_config.index) + "]: no driver '" +
-                               camera_config.driver + "'");
-        Expected<std::unique_ptr<Camera>> opened = driver->open(camera_config);
-        if (!opened.ok()) {
-          return Status::Error("cameras[" + std::to_string(camera_config.index) + "] (" +
-                               camera_config.driver + " " + camera_config.device +
-                               "): " + opened.error());
-        }
-        OpenedCamera camera;
-        camera.config = camera_config;
-        camera.camera = std::move(opened.value());
-        camera.info = camera.camera->info();
-        inputs.cameras.push_back(std::move(camera));
-      }
+      logWarning() << "replay: the session stores no body model and the configuration names "
+                      "none; tracking the built-in hand";
+      model_ = std::make_unique<BodyModel>(builtinHandModel());
     }
   }
+  if (!inputs.cameras.empty()) trackAtCameraRate(inputs.cameras.front().config.fps);
+  // Tracked as it was live: the session's tracker settings, under the keys the configuration
+  // sets itself. Sessions that store none take the configuration's.
+  if (!session->trackerSettings().empty()) {
+    try {
+      config_.tracker = replayTrackerSettings(config, session->trackerSettings(),
+                                              (session->path() / kManifestFile).string());
+    } catch (const ConfigError& e) {
+      return Status::Error(std::string("replay: ") + e.what());
+    }
+  }
+  // The truth's joints on the body it is of (the scene's subject tracked with another body, or
+  // the session's when the configuration names another to track).
+  const BodyModel* truth_body = session->truthBodyModel();
+  if (truth_body && truth_body->dofs.size() == model_->dofs.size())
+    inputs.reference_model = std::make_shared<const BodyModel>(*truth_body);
+  inputs.replay = std::move(session);
+  return Status::Ok();
+}
 
+Status MocapServer::openCameras(PipelineInputs& inputs) {
+  const ServerConfig& config = config_;
+  bool any_fake = false, all_fake = true;
+  for (const CameraConfig& camera : config.cameras) {
+    any_fake = any_fake || isFakeScene(camera);
+    all_fake = all_fake && isFakeScene(camera);
+  }
+  if (any_fake && !all_fake)
+    return Status::Error(config.source +
+                         ": cameras: the fake scene cannot be mixed with real cameras");
+  if (any_fake) return openFakeScene(inputs);
+  if (!model_) return Status::Error(config.source + ": body_model: required with real cameras");
+  if (!rig_) return Status::Error(config.source + ": calibration: required with real cameras");
+  for (const CameraConfig& camera_config : config.cameras) {
+    std::unique_ptr<Driver> driver = DriverRegistry::instance().create(camera_config.driver);
+    if (!driver)
+      return Status::Error("cameras[" + std::to_string(camera_config.index) + "]: no driver '" +
+                           camera_config.driver + "'");
+    Expected<std::unique_ptr<Camera>> opened = driver->open(camera_config);
+    if (!opened.ok()) {
+      return Status::Error("cameras[" + std::to_string(camera_config.index) + "] (" +
+                           camera_config.driver + " " + camera_config.device +
+                           "): " + opened.error());
+    }
+    inputs.cameras.push_back(openedCamera(camera_config, std::move(opened.value())));
+  }
+  return Status::Ok();
+}
+
+Status MocapServer::openFakeScene(PipelineInputs& inputs) {
+  const ServerConfig& config = config_;
+  FakeSceneSetupOptions options;
+  options.cameras = config.cameras;
+  options.seed = config.tracker.seed;
+  options.empty_seconds = config.scene_empty_seconds;
+  options.fit_pose_seconds = config.scene_fit_pose_seconds;
+  options.subject = subject_body_ ? subject_body_.get() : model_.get();
+  options.rig = rig_.get();
+  options.motion = scene_motion_;
+  Expected<FakeSceneSetup> setup = setUpFakeScene(options);
+  if (!setup.ok()) return Status::Error(setup.error());
+  std::shared_ptr<FakeScene> scene = setup.value().scene;
+  if (!model_) {
+    model_ = std::make_unique<BodyModel>(scene->model());
+    trackAtCameraRate(config.cameras.front().fps);
+  }
+  if (!rig_) rig_ = std::make_unique<Rig>(scene->rig());
+  // The demo measures tracking: the tracker sees the scene's true silhouettes unless the
+  // configuration asks for them to be extracted from the rendered images.
+  if (config.true_silhouettes) {
+    inputs.ground_truth = [scene](uint64_t sequence) {
+      return scene->groundTruth(sequence).silhouettes;
+    };
+    inputs.scene_backgrounds = setup.value().emptyBackgrounds();
+  }
+  for (std::size_t c = 0; c < config.cameras.size(); ++c)
+    inputs.cameras.push_back(openedCamera(config.cameras[c], std::move(setup.value().cameras[c])));
+  inputs.reference_pose = [scene](uint64_t sequence) { return scene->truePose(sequence); };
+  inputs.reference_model = subject_body_;
+  // The subject's first pose in view, as a real session would give it by a start-up pose.
+  inputs.initial_pose = scene->truePose(scene->options().empty_frames);
+  return Status::Ok();
+}
+
+Status MocapServer::prepareTracking(PipelineInputs& inputs) {
+  const ServerConfig& config = config_;
   // tracker.dofs: gait tracks the body's gait DOFs; the others hold the starting pose (the fake
   // scene's first true pose, or the neutral pose).
-  if (server->config_.tracker.dofs == "gait") {
-    BodyModel& model = *server->model_;
+  if (config_.tracker.dofs == "gait") {
+    BodyModel& model = *model_;
     inputs.fit_model = std::make_shared<const BodyModel>(model);  // FitBody fits every DOF
     if (model.gait_dofs.empty())
       return Status::Error(config.source + ": tracker.dofs: gait, but the body model '" +
@@ -249,24 +246,19 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
   }
   // tracker.start (config.h): the scene's true first pose, the subject found in the silhouettes,
   // or the neutral pose.
-  const std::string& start = server->config_.tracker.start;
-  const bool placeable = canAcquire(*server->model_);
+  const std::string& start = config_.tracker.start;
+  const bool placeable = canAcquire(*model_);
   if (start == "acquire" && !placeable)
     return Status::Error(config.source + ": tracker.start: acquire, but " +
-                         whyCannotAcquire(*server->model_));
+                         whyCannotAcquire(*model_));
   if (start == "neutral") inputs.initial_pose = Eigen::VectorXd();
   inputs.acquire =
       start == "acquire" || (start == "auto" && inputs.initial_pose.size() == 0 && placeable);
+  return Status::Ok();
+}
 
-  try {
-    server->pipeline_ = std::make_unique<Pipeline>(server->config_, *server->model_, *server->rig_,
-                                                   std::move(inputs), server->publisher_);
-  } catch (const std::exception& e) {
-    return Status::Error(e.what());
-  }
-  server->service_ = std::make_unique<MocapServiceImpl>(server->config_, *server->model_,
-                                                        *server->pipeline_, server->publisher_);
-
+Status MocapServer::listen() {
+  const ServerConfig& config = config_;
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
   if (!config.tls_cert_file.empty()) {
     Expected<std::string> cert = readFile(config.tls_cert_file);
@@ -287,12 +279,12 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(config.listen, credentials, &server->port_);
-  builder.RegisterService(server->service_.get());
-  server->server_ = builder.BuildAndStart();
-  if (!server->server_ || server->port_ == 0)
+  builder.AddListeningPort(config.listen, credentials, &port_);
+  builder.RegisterService(service_.get());
+  server_ = builder.BuildAndStart();
+  if (!server_ || port_ == 0)
     return Status::Error("cannot listen on " + config.listen + " (address in use or invalid)");
-  return server;
+  return Status::Ok();
 }
 
 MocapServer::~MocapServer() { shutdown(); }

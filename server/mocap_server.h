@@ -15,6 +15,7 @@
 #include "server/pose_publisher.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
+#include "tracker/motion/motion.h"
 
 namespace mocap {
 
@@ -40,9 +41,28 @@ class MocapServer {
  private:
   explicit MocapServer(const ServerConfig& config) : config_(config) {}
 
+  // The steps of create(), in order; each error names the file, camera or address at fault.
+  // The configured body and calibration, either of which may stay unset until the source gives it.
+  Status loadBodyAndCalibration();
+  // scene_motion: the subject moving as the recorded person did; sets subject_body_ when the
+  // tracker tracks another body.
+  Status loadSceneMotion();
+  Status openReplay(PipelineInputs& inputs);
+  Status openFakeScene(PipelineInputs& inputs);
+  Status openCameras(PipelineInputs& inputs);
+  // tracker.dofs and tracker.start.
+  Status prepareTracking(PipelineInputs& inputs);
+  Status listen();
+  // A model's speed limits are per frame at its frame_rate; the tracker's frames come at the
+  // cameras' rate (the recorded rate in a replay), so the body is tracked rescaled to it.
+  void trackAtCameraRate(double fps);
+
   ServerConfig config_;  // as given, but a replay's tracker settings come from the session
   std::unique_ptr<BodyModel> model_;
   std::unique_ptr<Rig> rig_;
+  // The fake scene's motion (scene_motion), and its subject's body when not the tracked one.
+  std::shared_ptr<const Motion> scene_motion_;
+  std::shared_ptr<const BodyModel> subject_body_;
   PosePublisher publisher_;
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<MocapServiceImpl> service_;
