@@ -2,13 +2,14 @@
 // filters do not care, and the suite stays fast), and silhouettes of a pose.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "tracker/model/builtin_models.h"
 #include "tracker/filters/filter.h"
+#include "tracker/model/builtin_models.h"
 #include "tracker/model/kinematics.h"
 #include "tracker/motion/motion.h"
 #include "tracker/sim/scene.h"
@@ -75,6 +76,20 @@ inline void expectSameEstimatesForThreadCounts(const std::string& method,
       }
     }
   }
+}
+
+// Two 240x180 cameras 90 degrees apart, 3 m from the vertical axis at `height`, looking at
+// `target`.
+inline Rig twoCameras(const Eigen::Vector3d& target, double height) {
+  Rig rig;
+  for (int i = 0; i < 2; ++i) {
+    const double azimuth = (30.0 + 90.0 * i) * M_PI / 180;
+    rig.push_back(
+        CameraModel::lookAt("cam" + std::to_string(i),
+                            Eigen::Vector3d(3 * std::cos(azimuth), 3 * std::sin(azimuth), height),
+                            target, Eigen::Vector3d::UnitZ(), 240, 180, 200));
+  }
+  return rig;
 }
 
 }  // namespace mocap::testing_support
