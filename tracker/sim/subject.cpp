@@ -175,6 +175,8 @@ SubjectParams drawSubjectParams(uint64_t seed) {
   return p;
 }
 
+int subjectJointParent(int joint) { return kParent[joint]; }
+
 SubjectJoints subjectJointsFromPoints(const BodyModel& model,
                                       const std::vector<Eigen::Vector3d>& points) {
   SubjectJoints joints;
@@ -285,6 +287,7 @@ void Subject::addTrunkAndHead(const SubjectJoints& j, PosedSubject& out) const {
   head_frame.col(0) = perpendicular(t.right_c, up_h);
   head_frame.col(1) = up_h.cross(head_frame.col(0));
   const Vector3d head = j[kHeadTop] - 0.11 * r * up_h + 0.01 * r * head_frame.col(1);
+  const std::size_t first_head_piece = p.size();
   p.push_back(
       swept(neck_base, 0.052 * r * std::pow(g, 0.7), head, 0.045 * r, SubjectMaterial::kSkin));
   p.push_back(
@@ -297,6 +300,7 @@ void Subject::addTrunkAndHead(const SubjectJoints& j, PosedSubject& out) const {
     p.push_back(swept(top_of_hair, 0.075 * r, ends, 0.065 * r, SubjectMaterial::kHair, t.right_c,
                       1.15, 0.55));
   }
+  for (std::size_t i = first_head_piece; i < p.size(); ++i) p[i].bone = kHeadTop;
 }
 
 void Subject::addLimbs(const SubjectJoints& j, PosedSubject& out) const {
@@ -318,6 +322,7 @@ void Subject::addLimbs(const SubjectJoints& j, PosedSubject& out) const {
     // The hand's rounded end just beyond the hand point (the fingertips).
     p.push_back(swept(wrist, 0.024 * r, hand - 0.01 * r * unitOr(hand - wrist, -t.up), 0.022 * r,
                       SubjectMaterial::kSkin));
+    for (int piece = 0; piece < 3; ++piece) p[p.size() - 3 + piece].bone = sh + 1 + piece;
   }
   const bool loose = c.lower == LowerGarment::kLooseTrousers;
   const bool bare = c.lower == LowerGarment::kSkirt || c.lower == LowerGarment::kDress;
@@ -328,6 +333,7 @@ void Subject::addLimbs(const SubjectJoints& j, PosedSubject& out) const {
     const Vector3d &hip = j[hp], &knee = j[hp + 1], &ankle = j[hp + 2], &toe = j[hp + 3];
     const Vector3d leg_up = unitOr(knee - ankle, t.up);
     const double thigh0 = 0.082 * r * std::pow(g, 1.2) + cloth;
+    const std::size_t thigh = p.size();
     if (loose) {
       p.push_back(swept(hip, thigh0 + 0.03 * r, knee, 0.085 * r * g, leg));
       p.push_back(swept(knee, 0.085 * r * g, ankle - 0.02 * r * leg_up, 0.08 * r * g, leg));
@@ -346,6 +352,9 @@ void Subject::addLimbs(const SubjectJoints& j, PosedSubject& out) const {
     const Vector3d tip = toe + (0.012 * r + shoe) * leg_up + 1.5 * shoe * ahead;
     p.push_back(swept(heel, 0.035 * r + shoe, tip, 0.028 * r + shoe,
                       c.shoes ? SubjectMaterial::kShoe : SubjectMaterial::kSkin));
+    p[thigh].bone = hp + 1;
+    for (std::size_t i = thigh + 1; i + 1 < p.size(); ++i) p[i].bone = hp + 2;  // shin, calf
+    p.back().bone = hp + 3;
   }
 }
 

@@ -71,6 +71,9 @@ enum SubjectJoint : int {
 // The model point names of the joints, in SubjectJoint order ("pelvis", "neck", "r_hip", ...).
 extern const std::array<const char*, kSubjectJointCount> kSubjectJointNames;
 using SubjectJoints = std::array<Eigen::Vector3d, kSubjectJointCount>;  // world, metres, Z up
+// The joint that joint `joint` hangs from (-1 for the pelvis): neck and hips from the pelvis,
+// shoulders and head top from the neck, and down each limb.
+int subjectJointParent(int joint);
 
 // The joints among `points` (world positions in model point order, as pointPositions gives).
 // Throws std::invalid_argument naming a joint the model has no point for.
@@ -99,6 +102,9 @@ struct SubjectPrimitive {
   Eigen::Matrix3d linear = Eigen::Matrix3d::Identity();
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   double length = 0, radius0 = 1, radius1 = 1;
+  // The limb piece's bone, by the joint it ends at (kLWrist: the forearm), the head's kHeadTop;
+  // -1 for the trunk and garments. Lets a renderer leave a limb out.
+  int bone = -1;
 };
 
 // A subject in one pose: its joints (the truth: the clothes do not move them) and its surface.

@@ -378,6 +378,29 @@ const PosedSubject& SubjectSceneRenderer::pose(const Eigen::VectorXd& q) {
   return posed_;
 }
 
+void SubjectSceneRenderer::hideSegment(int camera, int segment) {
+  // A bone is on the segment that carries the joint it starts from.
+  for (int j = 1; j < kSubjectJointCount; ++j) {
+    const int from = model_.pointIndex(kSubjectJointNames[subjectJointParent(j)]);
+    if (from >= 0 && model_.points[from].segment == segment) hidden_.emplace_back(camera, j);
+  }
+}
+
+const PosedSubject& SubjectSceneRenderer::visibleIn(int camera) {
+  if (std::none_of(hidden_.begin(), hidden_.end(),
+                   [&](const std::pair<int, int>& h) { return h.first == camera; }))
+    return posed_;
+  visible_.joints = posed_.joints;
+  visible_.chest = posed_.chest;
+  visible_.clothing = posed_.clothing;
+  visible_.primitives.clear();
+  for (const SubjectPrimitive& p : posed_.primitives)
+    if (std::find(hidden_.begin(), hidden_.end(), std::pair<int, int>(camera, p.bone)) ==
+        hidden_.end())
+      visible_.primitives.push_back(p);
+  return visible_;
+}
+
 std::vector<cv::Mat> SubjectSceneRenderer::renderSilhouettes(const Eigen::VectorXd& q) {
   std::vector<cv::Mat> images;
   renderSilhouettes(q, images);
@@ -389,7 +412,7 @@ void SubjectSceneRenderer::renderSilhouettes(const Eigen::VectorXd& q,
   pose(q);
   images.resize(rig_.size());
   for (std::size_t c = 0; c < rig_.size(); ++c)
-    rasterizer_.renderSilhouette(posed_, rig_[c], images[c]);
+    rasterizer_.renderSilhouette(visibleIn(static_cast<int>(c)), rig_[c], images[c]);
 }
 
 void SubjectSceneRenderer::renderLayers(const Eigen::VectorXd& q,

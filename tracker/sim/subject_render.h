@@ -4,6 +4,7 @@
 // and only the layer's pixels inside it are ray-tested against the primitive, through a z-buffer.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -80,6 +81,11 @@ class SubjectSceneRenderer {
   void renderLayers(const Eigen::VectorXd& q, std::vector<PersonLayer>& layers);
   // Poses the subject only (renders call it).
   const PosedSubject& pose(const Eigen::VectorXd& q);
+  // Leaves the subject's pieces on model segment `segment` (the bones from the joints the
+  // segment carries: l_forearm, the forearm and hand) out of camera `camera`'s images until
+  // cleared, as SceneRenderer::hideSegment does (a limb missed by segmentation).
+  void hideSegment(int camera, int segment);
+  void clearHidden() { hidden_.clear(); }
 
   // The subject's joints in the last pose, as the model's points (model point order).
   const std::vector<Eigen::Vector3d>& truthPoints() const { return truth_; }
@@ -95,6 +101,9 @@ class SubjectSceneRenderer {
   PosedSubject posed_;
   SubjectRasterizer rasterizer_;
   std::vector<Eigen::Vector3d> truth_;
+  std::vector<std::pair<int, int>> hidden_;  // (camera, subject joint ending the bone)
+  PosedSubject visible_;                     // posed_ less the hidden bones of one camera
+  const PosedSubject& visibleIn(int camera);
 };
 
 }  // namespace mocap

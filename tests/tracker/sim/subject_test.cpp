@@ -195,6 +195,26 @@ TEST(Subject, SilhouetteIsNotTheModelsYetCoversTheTruthJoints) {
   }
 }
 
+TEST(Subject, AHiddenSegmentLeavesItsLimbOutOfOneCamera) {
+  const BodyModel model = builtinHumanModel();
+  const Rig rig = labRigFor(model);
+  SubjectSceneRenderer renderer(model, rig, drawSubjectParams(4));
+  const Eigen::VectorXd q = stridePose(model);
+  const std::vector<cv::Mat> whole = renderer.renderSilhouettes(q);
+  renderer.hideSegment(0, model.segmentIndex("l_forearm"));
+  const std::vector<cv::Mat> missed = renderer.renderSilhouettes(q);
+  EXPECT_GT(cv::countNonZero(whole[0] & ~missed[0]), 200);
+  EXPECT_EQ(cv::countNonZero(missed[0] & ~whole[0]), 0);
+  EXPECT_EQ(cv::countNonZero(whole[1] != missed[1]), 0);
+  Eigen::Vector2d wrist;
+  ASSERT_TRUE(rig[0].project(renderer.posed().joints[kLWrist], wrist));
+  EXPECT_EQ(missed[0].at<uint8_t>(static_cast<int>(std::lround(wrist.y())),
+                                  static_cast<int>(std::lround(wrist.x()))),
+            0);
+  renderer.clearHidden();
+  EXPECT_EQ(cv::countNonZero(renderer.renderSilhouettes(q)[0] != whole[0]), 0);
+}
+
 Clothing withLower(Clothing c, LowerGarment lower) {
   c.lower = lower;
   return c;
