@@ -364,16 +364,19 @@ void Subject::addGarments(const SubjectJoints& j, PosedSubject& out) const {
   const TrunkFrames t = trunkFrames(j);
   auto& p = out.primitives;
   const Vector3d knees = 0.5 * (j[kLKnee] + j[kRKnee]);
-  const double knee_half = 0.5 * (j[kLKnee] - j[kRKnee]).norm();
   const double hips = t.hip_half + 0.085 * r * std::pow(g, 1.1);
   if (c.lower == LowerGarment::kSkirt || c.lower == LowerGarment::kDress) {
-    // A-line from the waist; the hem follows the knees and flares wide enough to clear them.
+    // A-line from the waist; the hem follows the legs where it crosses them (the knees, or the
+    // calves for a dress) and flares wide enough to clear them, front to back too.
     const bool dress = c.lower == LowerGarment::kDress;
     const Vector3d waist = j[kPelvis] + (dress ? 0.30 : 0.20) * t.length * t.up;
-    const Vector3d ankles = 0.5 * (j[kLAnkle] + j[kRAnkle]);
-    const Vector3d hem = dress ? Vector3d(knees + 0.45 * (ankles - knees))
-                               : Vector3d(waist + 0.95 * (knees - waist));
-    const double flare = std::max((dress ? 0.30 : 0.26) * r * std::sqrt(g), knee_half + 0.1 * r);
+    const double down = dress ? 0.45 : 0;
+    const Vector3d left = j[kLKnee] + down * (j[kLAnkle] - j[kLKnee]);
+    const Vector3d right = j[kRKnee] + down * (j[kRAnkle] - j[kRKnee]);
+    const Vector3d middle = 0.5 * (left + right);
+    const Vector3d hem = dress ? middle : Vector3d(waist + 0.95 * (middle - waist));
+    const double flare = std::max((dress ? 0.30 : 0.26) * r * std::sqrt(g),
+                                  0.5 * (left - right).norm() / 0.8 + 0.08 * r);
     p.push_back(
         swept(waist, hips * 0.95, hem, flare, SubjectMaterial::kBottom, t.right_p, 1, 0.8, true));
   }

@@ -374,6 +374,21 @@ TEST(Subject, Pictures) {
   }
   for (std::size_t cam = 0; cam < rig.size(); ++cam)
     cv::imwrite(std::string(dir) + "/subjects_cam" + std::to_string(cam) + ".png", strips[cam]);
+  // A subject in the colour test scene: wall, floor, cast shadow, light and noise.
+  TestSceneOptions options;
+  const Subject subject(drawSubjectParams(3), subjectJointsAt(model, model.neutralPose()));
+  SubjectRasterizer rasterizer;
+  PosedSubject posed;
+  options.person = [&](int, const CameraModel& camera, PersonLayer& layer) {
+    Eigen::VectorXd q = stridePose(model);
+    q[model.dofIndex("root_yaw")] = M_PI;  // facing the scene's camera, as its own person does
+    subject.pose(subjectJointsAt(model, q), posed);
+    rasterizer.renderLayer(posed, camera, layer);
+  };
+  SilhouetteTestScene scene(options);
+  TestSceneFrame frame;
+  scene.render(10, true, frame);
+  cv::imwrite(std::string(dir) + "/subject_in_test_scene.png", frame.image);
 }
 
 }  // namespace
