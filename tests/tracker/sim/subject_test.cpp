@@ -1,11 +1,13 @@
 // Simulated subjects: their own shape and proportions, clothes that change the outline but not the
 // joints, a shaded colour layer whose mask is the silhouette, and the test scene drawing them.
 #include "tracker/sim/subject.h"
+#include "tests/shared_data.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <random>
 #include <string>
 
@@ -14,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tracker/model/builtin_models.h"
+#include "tracker/motion/retarget.h"
 #include "tracker/sim/scene.h"
 #include "tracker/sim/subject_render.h"
 #include "tracker/sim/test_scene.h"
@@ -213,6 +216,36 @@ TEST(Subject, AHiddenSegmentLeavesItsLimbOutOfOneCamera) {
             0);
   renderer.clearHidden();
   EXPECT_EQ(cv::countNonZero(renderer.renderSilhouettes(q)[0] != whole[0]), 0);
+}
+
+TEST(Subject, PosesFromRealMotionCaptureJoints) {
+  // Driven by the CMU walk's own joints (model axes, metres), not by a model pose fitted to them.
+  const std::string path = testing_support::kSharedMotionDir + "cmu_131_01_walk.bvh";
+  REQUIRE_SHARED_FILE(path);
+  const Bvh bvh = loadBvh(path);
+  const BodyModel body = fitModelToBvh(builtinHumanModel(), bvh.skeleton);
+  const RetargetResult walk = retargetBvh(body, bvh.skeleton, bvh.motion, 25, 40);
+  const Rig rig = labRig(2, body, walk.motion);
+  const Subject subject(drawSubjectParams(8), subjectJointsAt(body, body.neutralPose()));
+  SubjectRasterizer rasterizer;
+  PosedSubject posed;
+  cv::Mat mask;
+  for (std::size_t f = 0; f < walk.targets.size(); f += 13) {
+    subject.pose(subjectJointsFromPoints(body, walk.targets[f]), posed);
+    // The subject's feet stay near the floor as the mocap subject's do.
+    EXPECT_LT(std::min(posed.joints[kLAnkle].z(), posed.joints[kRAnkle].z()), 0.2) << f;
+    for (const CameraModel& camera : rig) {
+      rasterizer.renderSilhouette(posed, camera, mask);
+      for (const Eigen::Vector3d& joint : posed.joints) {
+        Eigen::Vector2d pixel;
+        ASSERT_TRUE(camera.project(joint, pixel));
+        EXPECT_EQ(mask.at<uint8_t>(static_cast<int>(std::lround(pixel.y())),
+                                   static_cast<int>(std::lround(pixel.x()))),
+                  255)
+            << "frame " << f;
+      }
+    }
+  }
 }
 
 Clothing withLower(Clothing c, LowerGarment lower) {
