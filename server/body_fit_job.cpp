@@ -186,7 +186,7 @@ void BodyFitJob::run(Collection collection) {
     BodyFitOptions options;
     options.should_stop = [this] { return stop_fit_.load(); };
     const std::optional<BodyFit> fit =
-        fitBodyInPose(model, rig_, collection.frames, config_.tracker.filterOptions().likelihood,
+        fitBodyInPose(model, rig_, collection.frames, config_.tracker.filter.likelihood,
                       options, &why_not);
     if (fit) {
       // The sets the subject was found in (fitBodyInPose leaves the others out).

@@ -235,67 +235,30 @@ class ConfigParser {
     }
   }
 
-  // The keys of a `tracker:` map, over the settings in `t`.
+  // The keys of a `tracker:` map, over the settings in `t`: the daemon's own, then the filter's
+  // (their table, tracker/filters/filter_options.h).
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
-    onlyKeys(
-        tracker, "tracker",
-        {"method", "evaluations", "threads", "injection", "inject", "seed", "lookahead", "refine",
-         "refine_max", "refine_hold", "refine_plant", "refine_swap", "refine_swap_margin",
-         "refine_restarts", "refine_facing_prior", "refine_unexplained", "dofs", "start",
-         "lost_below", "lost_after"});
+    std::set<std::string> keys = {"method", "threads", "dofs", "start", "lost_below", "lost_after"};
+    for (const FilterOptionKey& option : filterOptionKeys()) keys.insert(option.key);
+    onlyKeys(tracker, "tracker", keys);
     if (tracker["method"]) {
       t.method = text(tracker["method"], "tracker.method");
       if (t.method != "factored" && t.method != "condensation" && t.method != "annealed")
         fail(tracker["method"], "tracker.method",
              "expected factored, condensation or annealed, got '" + t.method + "'");
     }
-    if (tracker["evaluations"])
-      t.evaluations = integer(tracker["evaluations"], "tracker.evaluations", 1, 10'000'000);
     if (tracker["threads"]) t.threads = integer(tracker["threads"], "tracker.threads", 1, 256);
-    if (tracker["injection"])
-      t.injection = number(tracker["injection"], "tracker.injection", 0, 0.99);
-    if (tracker["inject"]) {
-      t.inject = text(tracker["inject"], "tracker.inject");
-      if (t.inject != "dof" && t.inject != "segment")
-        fail(tracker["inject"], "tracker.inject",
-             "expected dof or segment, got '" + t.inject + "'");
+    for (const FilterOptionKey& option : filterOptionKeys()) {
+      const YAML::Node node = tracker[option.key];
+      if (!node) continue;
+      const std::string field = std::string("tracker.") + option.key;
+      if (!node.IsScalar()) fail(node, field, "expected a single value, got " + kindOf(node));
+      try {
+        option.set(t.filter, node.Scalar());
+      } catch (const std::invalid_argument& e) {
+        fail(node, field, e.what());
+      }
     }
-    if (tracker["seed"])
-      t.seed = static_cast<uint64_t>(integer(tracker["seed"], "tracker.seed", 0, 2'000'000'000));
-    if (tracker["lookahead"]) {
-      t.lookahead = text(tracker["lookahead"], "tracker.lookahead");
-      if (t.lookahead != "none" && t.lookahead != "root" && t.lookahead != "subtree" &&
-          t.lookahead != "body")
-        fail(tracker["lookahead"], "tracker.lookahead",
-             "expected none, root, subtree or body, got '" + t.lookahead + "'");
-    }
-    if (tracker["refine"]) t.refine = number(tracker["refine"], "tracker.refine", 0, 0.99);
-    if (tracker["refine_max"])
-      t.refine_max = integer(tracker["refine_max"], "tracker.refine_max", 0, 10'000'000);
-    if (tracker["refine_hold"])
-      t.refine_hold = boolean(tracker["refine_hold"], "tracker.refine_hold");
-    if (tracker["refine_plant"])
-      t.refine_plant = boolean(tracker["refine_plant"], "tracker.refine_plant");
-    if (const YAML::Node swap = tracker["refine_swap"]) {
-      // true: the whole legs exchanged; knees: only the knees
-      // (FilterOptions::refine_swap_knees_only).
-      t.refine_swap_knees = swap.IsScalar() && swap.Scalar() == "knees";
-      bool on = t.refine_swap_knees;
-      if (!on && !YAML::convert<bool>::decode(swap, on))
-        fail(swap, "tracker.refine_swap",
-             "expected true, false or knees, got '" + swap.Scalar() + "'");
-      t.refine_swap = on;
-    }
-    if (tracker["refine_swap_margin"])
-      t.refine_swap_margin =
-          number(tracker["refine_swap_margin"], "tracker.refine_swap_margin", 0, 1e7);
-    if (tracker["refine_restarts"])
-      t.refine_restarts = number(tracker["refine_restarts"], "tracker.refine_restarts", 0, 1);
-    if (tracker["refine_facing_prior"])
-      t.refine_facing_prior =
-          number(tracker["refine_facing_prior"], "tracker.refine_facing_prior", 0, 1e6);
-    if (tracker["refine_unexplained"])
-      t.refine_unexplained = boolean(tracker["refine_unexplained"], "tracker.refine_unexplained");
     if (tracker["dofs"]) {
       t.dofs = text(tracker["dofs"], "tracker.dofs");
       if (t.dofs != "all" && t.dofs != "gait")
@@ -500,69 +463,20 @@ class ConfigParser {
 
 TrackerSettings TrackerSettings::forPeople() {
   TrackerSettings people;
-  people.evaluations = 2000;
-  people.inject = "segment";
-  people.injection = 0.05;
-  people.lookahead = "body";
-  people.refine = 0.4;
-  people.refine_hold = true;
-  people.refine_plant = true;
-  people.refine_restarts = 0.14;
-  people.refine_facing_prior = 16;
+  people.filter = humanFilterDefaults();
+  people.filter.evaluations_per_frame = kHumanEvaluations;
   return people;
 }
 
-FilterOptions TrackerSettings::filterOptions() const {
-  FilterOptions options;
-  options.evaluations_per_frame = evaluations;
-  options.injection_share = injection;
-  options.injection = parseInjection(inject);
-  options.seed = seed;
-  options.lookahead = parseLookahead(lookahead);
-  options.refine_share = refine;
-  options.refine_hold = refine_hold;
-  options.refine_plant = refine_plant;
-  options.refine_swap = refine_swap;
-  options.refine_swap_knees_only = refine_swap && refine_swap_knees;
-  options.refine_swap_margin = refine_swap_margin;
-  options.refine_restart_share = refine_restarts;
-  options.refine_max_evaluations = refine_max;
-  options.refine_facing_prior = refine_facing_prior;
-  options.refine_unexplained = refine_unexplained;
-  return options;
-}
-
 std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() const {
-  // Shortest text that reads back to the same double.
-  const auto exact = [](double value) {
-    std::ostringstream text;
-    for (int digits = 15;; ++digits) {
-      text.str("");
-      text << std::setprecision(digits) << value;
-      if (digits == 17 || std::stod(text.str()) == value) return text.str();
-    }
-  };
-  return {{"method", method},
-          {"evaluations", std::to_string(evaluations)},
-          {"injection", exact(injection)},
-          {"inject", inject},
-          {"seed", std::to_string(seed)},
-          {"lookahead", lookahead},
-          {"refine", exact(refine)},
-          {"refine_max", std::to_string(refine_max)},
-          {"refine_hold", refine_hold ? "true" : "false"},
-          {"refine_plant", refine_plant ? "true" : "false"},
-          {"refine_swap", !refine_swap        ? "false"
-                          : refine_swap_knees ? "knees"
-                                              : "true"},
-          {"refine_swap_margin", exact(refine_swap_margin)},
-          {"refine_restarts", exact(refine_restarts)},
-          {"refine_facing_prior", exact(refine_facing_prior)},
-          {"refine_unexplained", refine_unexplained ? "true" : "false"},
-          {"dofs", dofs},
-          {"start", start},
-          {"lost_below", exact(lost_below)},
-          {"lost_after", std::to_string(lost_after)}};
+  std::vector<std::pair<std::string, std::string>> keys = {{"method", method}};
+  for (const FilterOptionKey& option : filterOptionKeys())
+    keys.emplace_back(option.key, option.get(filter));
+  keys.insert(keys.end(), {{"dofs", dofs},
+                           {"start", start},
+                           {"lost_below", shortestText(lost_below)},
+                           {"lost_after", std::to_string(lost_after)}});
+  return keys;
 }
 
 TrackerSettings replayTrackerSettings(

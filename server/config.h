@@ -27,39 +27,17 @@ std::optional<LogLevel> parseLogLevel(const std::string& name);
 
 struct TrackerSettings {
   std::string method = "factored";  // "factored", "condensation" or "annealed"
-  int evaluations = 375;            // particle evaluations per frame
   int threads = 1;                  // worker threads of the filter (counting the tracker thread)
-  double injection = 0.02;          // share of candidates from the static distribution
-  std::string inject = "dof";       // what an injected candidate redraws: "dof" (the paper) or
-                                    // "segment" (all of a segment's angles; better for people)
-  uint64_t seed = 1;                // the filters are deterministic for a seed
-  // factored only (FilterOptions): what a layer ranks its candidates by ("none" is the paper), the
-  // share of the budget spent on the full-body refinement, whether the refinement also turns
-  // segments with their ball-joint children held, whether it moves the pelvis with the feet
-  // planted, the share of the refinement spent on restarting a limb, and the weight of the prior
-  // that the pelvis faces where the legs do. For people, docs/human.md's defaults: body, 0.4,
-  // true, true, 0.14, 16 (with inject: segment, injection: 0.05, evaluations: 2000).
-  std::string lookahead = "none";
-  double refine = 0;
-  int refine_max = 0;  // at most this many of the refinement's evaluations a frame; 0: no cap
-  bool refine_hold = false;
-  bool refine_plant = false;
-  bool refine_swap = false;
-  bool refine_swap_knees = false;  // with refine_swap: only the knees exchanged (key value `knees`)
-  // With refine_swap: silhouette pixels the exchanged pose must gain to replace the pose.
-  double refine_swap_margin = FilterOptions().refine_swap_margin;
-  double refine_restarts = 0;
-  double refine_facing_prior = 0;
-  // Whether the refinement chases the silhouette a pose leaves unexplained with the legs
-  // (FilterOptions::refine_unexplained). A session recorded before the key replays without it.
-  bool refine_unexplained = false;
+  // The filter's options, one `tracker:` key each (tracker/filters/filter_options.h): the paper's
+  // hand setup unless the tracked body is a person (forPeople).
+  FilterOptions filter;
   // "all" tracks every DOF of the body; "gait" only the body model's gait_dofs (paper §8.4: the
   // human's 17 of the lower body and trunk), the others held at the starting pose.
   std::string dofs = "all";
   // Where tracking starts. "auto": live on the fake scene, its true first pose; otherwise the
-  // subject found in the silhouettes (tracker/search/acquire.h) when the body's root can be placed (a
-  // person), else the neutral pose (the hand). "acquire": always found (a body whose root cannot
-  // be placed is refused). "neutral": the body model's neutral pose.
+  // subject found in the silhouettes (tracker/search/acquire.h) when the body's root can be placed
+  // (a person), else the neutral pose (the hand). "acquire": always found (a body whose root
+  // cannot be placed is refused). "neutral": the body model's neutral pose.
   std::string start = "auto";
   // Loss detection, for a body the tracker can find by itself (AcquiringOptions): lost when the
   // pose's silhouette fit stays under `lost_below` times its recent level for `lost_after` frames;
@@ -68,13 +46,9 @@ struct TrackerSettings {
   int lost_after = 5;
 
   // The defaults when the tracked body is a person (body_model: builtin:human, a model file with
-  // `kind: person`, or a scene_motion):
-  // docs/human.md's options, the experiment's humanFilterDefaults() at 2000 evaluations (a test
-  // keeps the two equal). The defaults above are the paper's hand setup. Keys under `tracker:`
-  // override either.
+  // `kind: person`, or a scene_motion): humanFilterDefaults() at kHumanEvaluations. Keys under
+  // `tracker:` override either.
   static TrackerSettings forPeople();
-  // The filter's options these settings give (method and threads aside).
-  FilterOptions filterOptions() const;
   // Every setting but the thread count (which belongs to the machine, not to the tracking) as the
   // text of its `tracker:` key: what a recorded session stores.
   std::vector<std::pair<std::string, std::string>> keyValues() const;

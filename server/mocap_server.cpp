@@ -198,7 +198,7 @@ Status MocapServer::openFakeScene(PipelineInputs& inputs) {
   const ServerConfig& config = config_;
   FakeSceneSetupOptions options;
   options.cameras = config.cameras;
-  options.seed = config.tracker.seed;
+  options.seed = config.tracker.filter.seed;
   options.empty_seconds = config.scene_empty_seconds;
   options.fit_pose_seconds = config.scene_fit_pose_seconds;
   options.subject = subject_body_ ? subject_body_.get() : model_.get();
@@ -294,7 +294,7 @@ Status MocapServer::start() {
   if (!started.ok()) return started;
   const std::string host = config_.listen.substr(0, config_.listen.rfind(':'));
   logInfo() << "serving " << model_->name << " tracking (" << config_.tracker.method << ", "
-            << config_.tracker.evaluations << " evaluations/frame) from "
+            << config_.tracker.filter.evaluations_per_frame << " evaluations/frame) from "
             << pipeline_->cameras().size() << " camera(s)"
             << (config_.replay() ? " replayed from " + config_.replay_directory : "") << " on "
             << host << ":" << port_

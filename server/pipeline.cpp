@@ -112,7 +112,7 @@ std::unique_ptr<FrameSynchronizer> Pipeline::makeSynchronizer() const {
 }
 
 void Pipeline::makeTrackerFilter(bool in_fit_pose) {
-  const FilterOptions options = config_.tracker.filterOptions();
+  const FilterOptions options = config_.tracker.filter;
   auto make = [this, options, body = body_.model] {
     return makeFilter(config_.tracker.method, *body, rig_, options, *pool_);
   };

@@ -61,8 +61,8 @@ void trackSteps(benchmark::State& state, const TrackingSetup& s, const char* met
 void filterStep(benchmark::State& state, const char* method, double refine_share = 0,
                 int refine_max = 0) {
   FilterOptions options;
-  options.refine_share = refine_share;
-  options.refine_max_evaluations = refine_max;
+  options.refine.share = refine_share;
+  options.refine.max_evaluations = refine_max;
   trackSteps(state, setup(), method, options);
 }
 
@@ -173,7 +173,7 @@ void humanStep(benchmark::State& state, FilterOptions options) {
 // injection, 5 % injected.
 void BM_HumanFactoredStep2000(benchmark::State& state) {
   FilterOptions options = humanFilterDefaults();
-  options.refine_share = 0;
+  options.refine.share = 0;
   humanStep(state, options);
 }
 // The experiment's full defaults: the same with the refinement taking 40 % of the budget.

@@ -101,7 +101,7 @@ TEST(ExampleConfigsTest, FakeIsTheEmbeddedDefaultSpeltOut) {
   EXPECT_TRUE(config.calibration_file.empty());
   EXPECT_TRUE(config.body_model.empty());
   EXPECT_EQ(config.tracker.method, embedded.tracker.method);
-  EXPECT_EQ(config.tracker.evaluations, embedded.tracker.evaluations);
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, embedded.tracker.filter.evaluations_per_frame);
   EXPECT_EQ(config.tracker.threads, embedded.tracker.threads);
   EXPECT_EQ(config.listen, embedded.listen);
 }
@@ -113,8 +113,8 @@ TEST(ExampleConfigsTest, FakeWalkPlaysTheSharedWalkOnTheHumanBody) {
   EXPECT_TRUE(std::filesystem::equivalent(
       config.scene_motion,
       std::filesystem::path(MOCAP_SHARED_DIR) / "data/motion/cmu_131_01_walk.bvh"));
-  EXPECT_EQ(config.tracker.evaluations, 2000);
-  EXPECT_EQ(config.tracker.lookahead, "body");
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, 2000);
+  EXPECT_EQ(config.tracker.filter.lookahead, FilterOptions::Lookahead::kBody);
   // A motion is for the fake scene only.
   const std::filesystem::path path = kConfigDir / "fake-walk.yaml";
   EXPECT_THAT(errorOf(path, replaceOnce(readFile(path), "driver: fake, device: \"scene:1\"",
@@ -132,9 +132,9 @@ TEST(ExampleConfigsTest, FakeWalkExtractedStartsEmptyAndExtractsTheSilhouettes) 
   EXPECT_FALSE(config.true_silhouettes);
   EXPECT_TRUE(walk.true_silhouettes);
   EXPECT_EQ(config.tracker.start, "acquire");
-  EXPECT_EQ(config.tracker.evaluations, walk.tracker.evaluations);
-  EXPECT_EQ(config.tracker.refine, walk.tracker.refine);
-  EXPECT_EQ(config.tracker.lookahead, walk.tracker.lookahead);
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, walk.tracker.filter.evaluations_per_frame);
+  EXPECT_EQ(config.tracker.filter.refine.share, walk.tracker.filter.refine.share);
+  EXPECT_EQ(config.tracker.filter.lookahead, walk.tracker.filter.lookahead);
 }
 
 // Fitting the body: the shipped human tracked as given while the walk's subject stands in the fit
@@ -147,8 +147,8 @@ TEST(ExampleConfigsTest, FakeWalkFitTracksTheShippedBodyWhileTheSubjectStandsInT
   EXPECT_FALSE(config.track_subject_body);
   EXPECT_TRUE(walk.track_subject_body);
   EXPECT_EQ(config.scene_fit_pose_seconds, 20.0);
-  EXPECT_EQ(config.tracker.evaluations, walk.tracker.evaluations);
-  EXPECT_EQ(config.tracker.lookahead, walk.tracker.lookahead);
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, walk.tracker.filter.evaluations_per_frame);
+  EXPECT_EQ(config.tracker.filter.lookahead, walk.tracker.filter.lookahead);
 }
 
 TEST(ExampleConfigsTest, SystemDefaultRecordsAndKeepsBackgroundsUnderTheStateDirectory) {
@@ -181,7 +181,7 @@ TEST(ExampleConfigsTest, V4l2TwoUsbCamerasAt800x600) {
     EXPECT_EQ(camera.fps, 25.0);
   }
   EXPECT_EQ(config.body_model, "builtin:human");
-  EXPECT_EQ(config.tracker.evaluations, 2000);  // the people defaults, on two threads
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, 2000);  // the people defaults, on two threads
   EXPECT_EQ(config.tracker.threads, 2);
   expectRigFits(config);
 }

@@ -51,27 +51,27 @@ TEST(ConfigTest, TrackerOptionsForPeople) {
       " refine_hold: true, refine_plant: true, refine_swap: true, refine_restarts: 0.14,"
       " refine_facing_prior: 16, refine_max: 30, refine_unexplained: true, dofs: gait}\n",
       "test.yaml", ".");
-  EXPECT_EQ(config.tracker.filterOptions().refine_max_evaluations, 30);
-  EXPECT_EQ(config.tracker.lookahead, "body");
+  EXPECT_EQ(config.tracker.filter.refine.max_evaluations, 30);
+  EXPECT_EQ(config.tracker.filter.lookahead, FilterOptions::Lookahead::kBody);
   EXPECT_EQ(config.tracker.dofs, "gait");
-  EXPECT_EQ(config.tracker.refine, 0.4);
-  EXPECT_TRUE(config.tracker.refine_hold);
-  EXPECT_TRUE(config.tracker.refine_plant);
-  EXPECT_TRUE(config.tracker.refine_swap);
-  EXPECT_EQ(config.tracker.refine_restarts, 0.14);
-  EXPECT_EQ(config.tracker.refine_facing_prior, 16);
-  EXPECT_TRUE(config.tracker.filterOptions().refine_unexplained);
+  EXPECT_EQ(config.tracker.filter.refine.share, 0.4);
+  EXPECT_TRUE(config.tracker.filter.refine.hold);
+  EXPECT_TRUE(config.tracker.filter.refine.plant);
+  EXPECT_TRUE(config.tracker.filter.refine.swap.enabled);
+  EXPECT_EQ(config.tracker.filter.refine.restart_share, 0.14);
+  EXPECT_EQ(config.tracker.filter.refine.facing_prior, 16);
+  EXPECT_TRUE(config.tracker.filter.refine.unexplained);
   // Unset, they are the paper's filter.
   const ServerConfig plain = parseConfig(kDefaultConfigYaml, "default", ".");
-  EXPECT_EQ(plain.tracker.lookahead, "none");
-  EXPECT_EQ(plain.tracker.refine, 0);
-  EXPECT_EQ(plain.tracker.filterOptions().refine_max_evaluations, 0);
-  EXPECT_FALSE(plain.tracker.refine_hold);
-  EXPECT_FALSE(plain.tracker.refine_plant);
-  EXPECT_FALSE(plain.tracker.refine_swap);
-  EXPECT_EQ(plain.tracker.refine_restarts, 0);
-  EXPECT_EQ(plain.tracker.refine_facing_prior, 0);
-  EXPECT_FALSE(plain.tracker.refine_unexplained);
+  EXPECT_EQ(plain.tracker.filter.lookahead, FilterOptions::Lookahead::kNone);
+  EXPECT_EQ(plain.tracker.filter.refine.share, 0);
+  EXPECT_EQ(plain.tracker.filter.refine.max_evaluations, 0);
+  EXPECT_FALSE(plain.tracker.filter.refine.hold);
+  EXPECT_FALSE(plain.tracker.filter.refine.plant);
+  EXPECT_FALSE(plain.tracker.filter.refine.swap.enabled);
+  EXPECT_EQ(plain.tracker.filter.refine.restart_share, 0);
+  EXPECT_EQ(plain.tracker.filter.refine.facing_prior, 0);
+  EXPECT_FALSE(plain.tracker.filter.refine.unexplained);
   EXPECT_EQ(plain.tracker.dofs, "all");
 }
 
@@ -81,59 +81,58 @@ TEST(ConfigTest, RefineSwapKneesExchangesOnlyTheKnees) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   const ServerConfig knees =
       parseConfig(cameras + "tracker: {refine_swap: knees}\n", "test.yaml", ".");
-  EXPECT_TRUE(knees.tracker.refine_swap);
-  EXPECT_TRUE(knees.tracker.filterOptions().refine_swap);
-  EXPECT_TRUE(knees.tracker.filterOptions().refine_swap_knees_only);
+  EXPECT_TRUE(knees.tracker.filter.refine.swap.enabled);
+  EXPECT_TRUE(knees.tracker.filter.refine.swap.enabled);
+  EXPECT_TRUE(knees.tracker.filter.refine.swap.knees_only);
   const ServerConfig legs =
       parseConfig(cameras + "tracker: {refine_swap: true}\n", "test.yaml", ".");
-  EXPECT_TRUE(legs.tracker.filterOptions().refine_swap);
-  EXPECT_FALSE(legs.tracker.filterOptions().refine_swap_knees_only);
+  EXPECT_TRUE(legs.tracker.filter.refine.swap.enabled);
+  EXPECT_FALSE(legs.tracker.filter.refine.swap.knees_only);
 
   // The margin the exchanged pose must gain: the filter's unless set, and kept by a session.
-  EXPECT_EQ(knees.tracker.filterOptions().refine_swap_margin, FilterOptions().refine_swap_margin);
+  EXPECT_EQ(knees.tracker.filter.refine.swap.margin, FilterOptions().refine.swap.margin);
   const ServerConfig strict = parseConfig(
       cameras + "tracker: {refine_swap: knees, refine_swap_margin: 1234.5}\n", "test.yaml", ".");
-  EXPECT_EQ(strict.tracker.filterOptions().refine_swap_margin, 1234.5);
+  EXPECT_EQ(strict.tracker.filter.refine.swap.margin, 1234.5);
 
   const ServerConfig plain = parseConfig(cameras, "replay.yaml", ".");
   const TrackerSettings replayed =
       replayTrackerSettings(plain, knees.tracker.keyValues(), "session/manifest.yaml");
-  EXPECT_TRUE(replayed.filterOptions().refine_swap_knees_only);
+  EXPECT_TRUE(replayed.filter.refine.swap.knees_only);
   EXPECT_EQ(replayTrackerSettings(plain, strict.tracker.keyValues(), "session/manifest.yaml")
-                .filterOptions()
-                .refine_swap_margin,
+                .filter.refine.swap.margin,
             1234.5);
   const ServerConfig off = parseConfig(cameras + "tracker: {refine_swap: false}\n", "r.yaml", ".");
   EXPECT_FALSE(replayTrackerSettings(off, knees.tracker.keyValues(), "session/manifest.yaml")
-                   .filterOptions()
-                   .refine_swap_knees_only);  // the configuration's own key wins
+                   .filter.refine.swap.knees_only);  // the configuration's own key wins
 }
 
 TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   const ServerConfig person =
       parseConfig(cameras + "body_model: builtin:human\n", "test.yaml", ".");
-  EXPECT_EQ(person.tracker.evaluations, 2000);
-  EXPECT_EQ(person.tracker.inject, "segment");
-  EXPECT_EQ(person.tracker.injection, 0.05);
-  EXPECT_EQ(person.tracker.lookahead, "body");
-  EXPECT_EQ(person.tracker.refine, 0.4);
-  EXPECT_TRUE(person.tracker.refine_hold);
-  EXPECT_TRUE(person.tracker.refine_plant);
-  EXPECT_FALSE(person.tracker.refine_swap);  // measured, not kept (docs/human.md)
-  EXPECT_EQ(person.tracker.refine_restarts, 0.14);
-  EXPECT_EQ(person.tracker.refine_facing_prior, 16);
+  EXPECT_EQ(person.tracker.filter.evaluations_per_frame, 2000);
+  EXPECT_EQ(person.tracker.filter.injection.redraw, InjectionOptions::Redraw::kSegment);
+  EXPECT_EQ(person.tracker.filter.injection.share, 0.05);
+  EXPECT_EQ(person.tracker.filter.lookahead, FilterOptions::Lookahead::kBody);
+  EXPECT_EQ(person.tracker.filter.refine.share, 0.4);
+  EXPECT_TRUE(person.tracker.filter.refine.hold);
+  EXPECT_TRUE(person.tracker.filter.refine.plant);
+  EXPECT_FALSE(person.tracker.filter.refine.swap.enabled);  // measured, not kept (docs/human.md)
+  EXPECT_EQ(person.tracker.filter.refine.restart_share, 0.14);
+  EXPECT_EQ(person.tracker.filter.refine.facing_prior, 16);
 
   const ServerConfig tuned = parseConfig(
       cameras + "body_model: builtin:human\ntracker: {evaluations: 800, refine_hold: false}\n",
       "test.yaml", ".");
-  EXPECT_EQ(tuned.tracker.evaluations, 800);
-  EXPECT_FALSE(tuned.tracker.refine_hold);
-  EXPECT_EQ(tuned.tracker.lookahead, "body");  // the keys not given keep the people defaults
+  EXPECT_EQ(tuned.tracker.filter.evaluations_per_frame, 800);
+  EXPECT_FALSE(tuned.tracker.filter.refine.hold);
+  EXPECT_EQ(tuned.tracker.filter.lookahead,
+            FilterOptions::Lookahead::kBody);  // the keys not given keep the people defaults
 
   const ServerConfig hand = parseConfig(cameras + "body_model: builtin:hand\n", "test.yaml", ".");
-  EXPECT_EQ(hand.tracker.evaluations, 375);
-  EXPECT_EQ(hand.tracker.lookahead, "none");
+  EXPECT_EQ(hand.tracker.filter.evaluations_per_frame, 375);
+  EXPECT_EQ(hand.tracker.filter.lookahead, FilterOptions::Lookahead::kNone);
 }
 
 TEST(ConfigTest, ABodyModelFileSaysWhetherItIsAPerson) {
@@ -143,12 +142,12 @@ TEST(ConfigTest, ABodyModelFileSaysWhetherItIsAPerson) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   const ServerConfig person =
       parseConfig(cameras + "body_model: " + models + "human.yaml\n", "test.yaml", ".");
-  EXPECT_EQ(person.tracker.evaluations, 2000);
-  EXPECT_EQ(person.tracker.lookahead, "body");
+  EXPECT_EQ(person.tracker.filter.evaluations_per_frame, 2000);
+  EXPECT_EQ(person.tracker.filter.lookahead, FilterOptions::Lookahead::kBody);
   const ServerConfig hand =
       parseConfig(cameras + "body_model: " + models + "hand.yaml\n", "test.yaml", ".");
-  EXPECT_EQ(hand.tracker.evaluations, 375);
-  EXPECT_EQ(hand.tracker.lookahead, "none");
+  EXPECT_EQ(hand.tracker.filter.evaluations_per_frame, 375);
+  EXPECT_EQ(hand.tracker.filter.lookahead, FilterOptions::Lookahead::kNone);
   // Each file read once, here; the server tracks that model (end_to_end_test).
   ASSERT_TRUE(person.body_model_file && hand.body_model_file);
   EXPECT_TRUE(person.body_model_file->person);
@@ -169,32 +168,17 @@ TEST(ConfigTest, ABodyModelFileSaysWhetherItIsAPerson) {
   }
 }
 
-TEST(ConfigTest, ThePeopleDefaultsAreTheOptionsMeasuredInTheHumanExperiment) {
-  // The daemon does not link the experiments; this keeps its copy of their defaults from drifting.
-  const FilterOptions daemon = TrackerSettings::forPeople().filterOptions();
-  const FilterOptions experiment = humanFilterDefaults();
-  EXPECT_EQ(daemon.evaluations_per_frame, kHumanEvaluations);
-  EXPECT_EQ(daemon.lookahead, experiment.lookahead);
-  EXPECT_EQ(daemon.injection, experiment.injection);
-  EXPECT_EQ(daemon.injection_share, experiment.injection_share);
-  EXPECT_EQ(daemon.refine_share, experiment.refine_share);
-  EXPECT_EQ(daemon.refine_hold, experiment.refine_hold);
-  EXPECT_EQ(daemon.refine_plant, experiment.refine_plant);
-  EXPECT_EQ(daemon.refine_swap, experiment.refine_swap);
-  EXPECT_EQ(daemon.refine_restart_share, experiment.refine_restart_share);
-  EXPECT_EQ(daemon.refine_facing_prior, experiment.refine_facing_prior);
-  EXPECT_EQ(daemon.refine_unexplained, experiment.refine_unexplained);
-}
-
 TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKeys) {
   TrackerSettings recorded = TrackerSettings::forPeople();
-  recorded.seed = 7;
+  recorded.filter.seed = 7;
   recorded.threads = 8;
-  recorded.injection = 0.1 + 0.2;  // not the shortest decimal: must still read back exactly
+  recorded.filter.injection.share =
+      0.1 + 0.2;  // not the shortest decimal: must still read back exactly
   recorded.dofs = "gait";
-  recorded.refine_swap = true;  // not the people default: must come back from the session
-  recorded.refine_max = 30;     // likewise
-  recorded.refine_unexplained = !recorded.refine_unexplained;  // likewise
+  recorded.filter.refine.swap.enabled =
+      true;  // not the people default: must come back from the session
+  recorded.filter.refine.max_evaluations = 30;                               // likewise
+  recorded.filter.refine.unexplained = !recorded.filter.refine.unexplained;  // likewise
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
 
   // A configuration without tracker keys: the session's settings, the configuration's threads.
@@ -202,18 +186,18 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   const TrackerSettings as_recorded =
       replayTrackerSettings(plain, recorded.keyValues(), "session/manifest.yaml");
   EXPECT_EQ(as_recorded.method, recorded.method);
-  EXPECT_EQ(as_recorded.evaluations, 2000);
-  EXPECT_EQ(as_recorded.injection, recorded.injection);
-  EXPECT_EQ(as_recorded.inject, "segment");
-  EXPECT_EQ(as_recorded.seed, 7u);
-  EXPECT_EQ(as_recorded.lookahead, "body");
-  EXPECT_EQ(as_recorded.refine, 0.4);
-  EXPECT_TRUE(as_recorded.refine_hold);
-  EXPECT_TRUE(as_recorded.refine_plant);
-  EXPECT_TRUE(as_recorded.refine_swap);
-  EXPECT_EQ(as_recorded.refine_restarts, 0.14);
-  EXPECT_EQ(as_recorded.refine_max, 30);
-  EXPECT_EQ(as_recorded.refine_unexplained, recorded.refine_unexplained);
+  EXPECT_EQ(as_recorded.filter.evaluations_per_frame, 2000);
+  EXPECT_EQ(as_recorded.filter.injection.share, recorded.filter.injection.share);
+  EXPECT_EQ(as_recorded.filter.injection.redraw, InjectionOptions::Redraw::kSegment);
+  EXPECT_EQ(as_recorded.filter.seed, 7u);
+  EXPECT_EQ(as_recorded.filter.lookahead, FilterOptions::Lookahead::kBody);
+  EXPECT_EQ(as_recorded.filter.refine.share, 0.4);
+  EXPECT_TRUE(as_recorded.filter.refine.hold);
+  EXPECT_TRUE(as_recorded.filter.refine.plant);
+  EXPECT_TRUE(as_recorded.filter.refine.swap.enabled);
+  EXPECT_EQ(as_recorded.filter.refine.restart_share, 0.14);
+  EXPECT_EQ(as_recorded.filter.refine.max_evaluations, 30);
+  EXPECT_EQ(as_recorded.filter.refine.unexplained, recorded.filter.refine.unexplained);
   EXPECT_EQ(as_recorded.dofs, "gait");
   EXPECT_EQ(as_recorded.threads, 1);
 
@@ -223,10 +207,10 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
                   "replay.yaml", ".");
   const TrackerSettings overridden =
       replayTrackerSettings(tuned, recorded.keyValues(), "session/manifest.yaml");
-  EXPECT_EQ(overridden.evaluations, 800);
-  EXPECT_FALSE(overridden.refine_hold);
+  EXPECT_EQ(overridden.filter.evaluations_per_frame, 800);
+  EXPECT_FALSE(overridden.filter.refine.hold);
   EXPECT_EQ(overridden.threads, 2);
-  EXPECT_EQ(overridden.lookahead, "body");
+  EXPECT_EQ(overridden.filter.lookahead, FilterOptions::Lookahead::kBody);
 
   // A bad stored setting is named with the session's manifest.
   const auto errorOfStored = [&](std::vector<std::pair<std::string, std::string>> stored) {
@@ -237,9 +221,8 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
     }
     return std::string();
   };
-  EXPECT_THAT(
-      errorOfStored({{"lookahead", "ahead"}}),
-      HasSubstr("session/manifest.yaml: tracker.lookahead: expected none, root, subtree or body"));
+  EXPECT_THAT(errorOfStored({{"lookahead", "ahead"}}),
+              HasSubstr("session/manifest.yaml: tracker.lookahead: expected none or body"));
   EXPECT_THAT(errorOfStored({{"speed", "3"}}), HasSubstr("tracker.speed: unknown key"));
 }
 
@@ -256,7 +239,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {inject: limbs}\n",
        "tracker.inject: expected dof or segment, got 'limbs'"},
       {cameras + "tracker: {lookahead: ahead}\n",
-       "tracker.lookahead: expected none, root, subtree or body, got 'ahead'"},
+       "tracker.lookahead: expected none or body, got 'ahead'"},
       {cameras + "tracker: {refine: 1.5}\n", "tracker.refine: must be between 0 and 0.99"},
       {cameras + "tracker: {refine_max: -1}\n", "tracker.refine_max: must be between 0 and"},
       {cameras + "tracker: {refine_hold: maybe}\n", "tracker.refine_hold"},
@@ -279,7 +262,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
        "test.yaml:3: listen: expected a non-empty string, got a map"},
       {cameras + "listen:\n", "listen: expected a non-empty string, got nothing"},
       {cameras + "tracker: {evaluations: [1, 2]}\n",
-       "tracker.evaluations: expected a number, got a list"},
+       "tracker.evaluations: expected a single value, got a list"},
       {cameras + "trackr: {}\n", "trackr: unknown key"},
       {"cameras:\n  - {driver: nosuch}\n", "cameras[0].driver: no driver 'nosuch'"},
       {"cameras: []\n", "cameras: expected a non-empty list"},

@@ -73,7 +73,7 @@ TEST_F(EndToEndTest, TracksAPersonWalkingInTheFakeScene) {
     const auto found = settings.find(key);
     return found == settings.end() ? std::string("<missing>") : found->second;
   };
-  EXPECT_EQ(setting("evaluations"), std::to_string(config.tracker.evaluations));
+  EXPECT_EQ(setting("evaluations"), std::to_string(config.tracker.filter.evaluations_per_frame));
   EXPECT_EQ(setting("lookahead"), "body");
   EXPECT_EQ(setting("refine_plant"), "true");
   EXPECT_EQ(setting("threads"), std::to_string(config.tracker.threads));
@@ -270,7 +270,7 @@ TEST_F(EndToEndTest, TracksTheBodyFileAsTheConfigurationReadIt) {
 // pose in every published pose. A body without gait DOFs (the hand) is refused naming the key.
 TEST_F(EndToEndTest, TracksTheGaitDofsWhenTheConfigurationSaysSo) {
   ServerConfig config = walkingPersonConfig();
-  config.tracker.evaluations = 800;
+  config.tracker.filter.evaluations_per_frame = 800;
   config.tracker.dofs = "gait";
   std::unique_ptr<MocapServer> server = startServer(config);
   ASSERT_TRUE(server);
@@ -308,8 +308,8 @@ TEST_F(EndToEndTest, ARefinementLongerThanAFrameGivesWayToTheNextSetLiveOnly) {
   ServerConfig config = test::sceneConfig();
   // The hand's layers alone take 23,925 evaluations, more than a frame period on any machine
   // (about 0.2 s here), so the next set is waiting whenever the refinement starts.
-  config.tracker.evaluations = 30000;
-  config.tracker.refine = 0.2;
+  config.tracker.filter.evaluations_per_frame = 30000;
+  config.tracker.filter.refine.share = 0.2;
   config.recording_directory = fs::canonical(root).string();
   {
     std::unique_ptr<MocapServer> server = startServer(config);

@@ -132,7 +132,7 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   const fs::path root = freshDirectory("replay_body");
   {
     ServerConfig config = walkingPersonConfig();
-    config.tracker.evaluations = 600;  // not the replay configuration's 375, nor the people's 2000
+    config.tracker.filter.evaluations_per_frame = 600;  // not the replay configuration's 375, nor the people's 2000
     config.recording_directory = fs::canonical(root).string();
     std::unique_ptr<MocapServer> server = startServer(config);
     ASSERT_TRUE(server);

@@ -5,27 +5,20 @@
 
 namespace mocap {
 
+// hand and human also take the filter's options (filter_flags.h), listed after their own flags.
 inline constexpr const char* kHandUsage =
     "hand [--method factored|condensation] [--evals N] [--frames N] [--seed S] [--cameras N]\n"
-    "       [--motion FILE.csv] [--model FILE.yaml] [--threads N] [--keep K] [--samples S]\n"
-    "       [--injection SHARE] [--beta B] [--lookahead none|root|subtree|body] [--refine SHARE]\n"
-    "       [--refine-max N] [--describe]";
+    "       [--motion FILE.csv] [--model FILE.yaml] [--threads N] [--describe]";
 int runHandCommand(int argc, char** argv);
 
 inline constexpr const char* kHumanUsage =
     "human --motion FILE.bvh [--method factored|condensation|annealed] [--evals N] [--cameras N]\n"
     "       [--frames N] [--seed S] [--dofs 31|17] [--noise none|realistic] [--threads N]\n"
     "       [--start-offset none|arm60|body30cm|acquire] [--start-frame N]\n"
-    "       [--injection SHARE] [--inject dof|segment]\n"
-    "       [--keep K] [--samples S] [--layers M] [--lookahead none|root|subtree|body]\n"
-    "       [--estimate mean|best] [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
+    "       [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
     "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
     "       [--subject-scale K] [--tracked-body truth|default|fit]\n"
-    "       [--lost-below FIT [--lost-after N]] [--dropout-at F --dropout-frames N]\n"
-    "       [--refine SHARE] [--refine-max N] [--refine-step SPEEDS]\n"
-    "       [--refine-hold 0|1] [--refine-plant 0|1] [--refine-unexplained 0|1]\n"
-    "       [--refine-swap 0|1 [--refine-swap-knees 0|1] [--refine-swap-margin PIXELS]]\n"
-    "       [--refine-restarts SHARE] [--refine-facing-prior W]";
+    "       [--lost-below FIT [--lost-after N]] [--dropout-at F --dropout-frames N]";
 int runHumanCommand(int argc, char** argv);
 
 inline constexpr const char* kBvhFitUsage =

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <iostream>
 
-#include "tracker/cli/args.h"
+#include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/commands.h"
 #include "tracker/experiments/metrics.h"
 #include "tracker/model/kinematics.h"
@@ -79,8 +79,8 @@ nlohmann::json runHandExperiment(const HandExperimentConfig& config) {
       {"cameras", static_cast<int>(rig.size())},
       {"seed", config.seed},
       {"threads", pool.size()},
-      {"refine", config.method == "factored" ? config.filter.refine_share : 0.0},
-      {"refine_max", config.method == "factored" ? config.filter.refine_max_evaluations : 0},
+      {"refine", config.method == "factored" ? config.filter.refine.share : 0.0},
+      {"refine_max", config.method == "factored" ? config.filter.refine.max_evaluations : 0},
       {"evals_per_frame", static_cast<double>(evaluations) / frames},
       {"segment_renders_per_frame", static_cast<double>(renders) / frames},
       {"mean_relative_error", moving ? sum / moving : 0.0},
@@ -96,7 +96,7 @@ nlohmann::json runHandExperiment(const HandExperimentConfig& config) {
 namespace mocap {
 
 int runHandCommand(int argc, char** argv) {
-  const Args args(argc, argv, 2, kHandUsage);
+  const Args args(argc, argv, 2, std::string(kHandUsage) + "\n" + filterFlagsUsage("       "));
   if (args.has("describe")) {
     const BodyModel model =
         args.has("model") ? loadBodyModel(args.text("model", "")) : builtinHandModel();
@@ -112,14 +112,7 @@ int runHandCommand(int argc, char** argv) {
   config.motion_path = args.text("motion", "");
   config.model_path = args.text("model", "");
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
-  config.filter.keep = static_cast<int>(args.integer("keep", config.filter.keep, 1, 100000));
-  config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));
-  config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
-  config.filter.likelihood.beta = args.real("beta", config.filter.likelihood.beta, 1e-9, 1e3);
-  config.filter.lookahead = parseLookahead(args.text("lookahead", "none"));
-  config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
-  config.filter.refine_max_evaluations = static_cast<int>(
-      args.integer("refine-max", config.filter.refine_max_evaluations, 0, 10'000'000));
+  readFilterFlags(args, config.filter);
   std::cout << runHandExperiment(config).dump(2) << "\n";
   return 0;
 }

@@ -17,7 +17,7 @@
 #include "tracker/search/acquire.h"
 #include "tracker/search/body_size.h"
 #include "tracker/motion/bvh.h"
-#include "tracker/cli/args.h"
+#include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/commands.h"
 #include "tracker/likelihood/full_body.h"
 #include "tracker/model/kinematics.h"
@@ -431,7 +431,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   int residual_count = 0;
   for (int f = 0; f < frames; ++f)
     for (double r : retarget.residual_mm[f]) residual += r, ++residual_count;
-  const bool refined = config.method == "factored" && options.refine_share > 0;
+  const bool refined = config.method == "factored" && options.refine.share > 0;
   nlohmann::json out = {
       {"experiment", "human"},
       {"motion", std::filesystem::path(config.motion_path).filename().string()},
@@ -442,17 +442,17 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"noise", config.noise},
       {"seed", config.seed},
       {"threads", pool.size()},
-      {"injection", options.injection_share},
-      {"inject", options.injection == FilterOptions::Injection::kSegment ? "segment" : "dof"},
-      {"refine", refined ? options.refine_share : 0.0},
-      {"refine_max", refined ? options.refine_max_evaluations : 0},
-      {"refine_hold", refined && options.refine_hold},
-      {"refine_plant", refined && options.refine_plant},
-      {"refine_unexplained", refined && options.refine_unexplained},
-      {"refine_swap", refined && options.refine_swap},
-      {"refine_swap_knees_only", refined && options.refine_swap && options.refine_swap_knees_only},
-      {"refine_swap_margin", refined && options.refine_swap ? options.refine_swap_margin : 0.0},
-      {"refine_restart_share", refined ? options.refine_restart_share : 0.0},
+      {"injection", options.injection.share},
+      {"inject", options.injection.redraw == InjectionOptions::Redraw::kSegment ? "segment" : "dof"},
+      {"refine", refined ? options.refine.share : 0.0},
+      {"refine_max", refined ? options.refine.max_evaluations : 0},
+      {"refine_hold", refined && options.refine.hold},
+      {"refine_plant", refined && options.refine.plant},
+      {"refine_unexplained", refined && options.refine.unexplained},
+      {"refine_swap", refined && options.refine.swap.enabled},
+      {"refine_swap_knees_only", refined && options.refine.swap.enabled && options.refine.swap.knees_only},
+      {"refine_swap_margin", refined && options.refine.swap.enabled ? options.refine.swap.margin : 0.0},
+      {"refine_restart_share", refined ? options.refine.restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / scored},
       {"segment_renders_per_frame", static_cast<double>(renders) / scored},
       {"mpjpe_mm", mpjpe / scored},
@@ -514,7 +514,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
 }
 
 int runHumanCommand(int argc, char** argv) {
-  const Args args(argc, argv, 2, kHumanUsage);
+  const Args args(argc, argv, 2, std::string(kHumanUsage) + "\n" + filterFlagsUsage("       "));
   HumanExperimentConfig config;
   config.motion_path = args.text("motion", "");
   config.method = args.text("method", config.method);
@@ -539,39 +539,7 @@ int runHumanCommand(int argc, char** argv) {
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");
-  config.filter.injection_share = args.real("injection", config.filter.injection_share, 0.0, 0.99);
-  if (args.has("inject")) config.filter.injection = parseInjection(args.text("inject", ""));
-  config.filter.keep = static_cast<int>(args.integer("keep", config.filter.keep, 1, 100000));
-  config.filter.samples = static_cast<int>(args.integer("samples", 0, 0, 100000));
-  config.filter.annealing_layers =
-      static_cast<int>(args.integer("layers", config.filter.annealing_layers, 1, 100));
-  if (args.has("lookahead")) config.filter.lookahead = parseLookahead(args.text("lookahead", ""));
-  config.filter.refine_share = args.real("refine", config.filter.refine_share, 0.0, 0.99);
-  config.filter.refine_max_evaluations = static_cast<int>(
-      args.integer("refine-max", config.filter.refine_max_evaluations, 0, 10'000'000));
-  config.filter.refine_step = args.real("refine-step", config.filter.refine_step, 0.0, 100.0);
-  config.filter.refine_restart_share =
-      args.real("refine-restarts", config.filter.refine_restart_share, 0.0, 1.0);
-  config.filter.refine_hold =
-      args.integer("refine-hold", config.filter.refine_hold ? 1 : 0, 0, 1) == 1;
-  config.filter.refine_plant =
-      args.integer("refine-plant", config.filter.refine_plant ? 1 : 0, 0, 1) == 1;
-  config.filter.refine_unexplained =
-      args.integer("refine-unexplained", config.filter.refine_unexplained ? 1 : 0, 0, 1) == 1;
-  config.filter.refine_swap =
-      args.integer("refine-swap", config.filter.refine_swap ? 1 : 0, 0, 1) == 1;
-  config.filter.refine_swap_knees_only =
-      args.integer("refine-swap-knees", config.filter.refine_swap_knees_only ? 1 : 0, 0, 1) == 1;
-  if (config.filter.refine_swap_knees_only && !config.filter.refine_swap)
-    throw std::invalid_argument("--refine-swap-knees 1 needs --refine-swap 1");
-  config.filter.refine_swap_margin =
-      args.real("refine-swap-margin", config.filter.refine_swap_margin, 0.0, 1e7);
-  config.filter.refine_facing_prior =
-      args.real("refine-facing-prior", config.filter.refine_facing_prior, 0.0, 1e6);
-  const std::string estimate = args.text("estimate", "mean");
-  if (estimate != "mean" && estimate != "best")
-    throw std::invalid_argument("--estimate: expected mean or best, got '" + estimate + "'");
-  config.filter.estimate_best = estimate == "best";
+  readFilterFlags(args, config.filter);
   std::cout << runHumanExperiment(config).dump(2) << "\n";
   return 0;
 }

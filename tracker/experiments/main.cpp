@@ -4,6 +4,7 @@
 #include <string>
 
 #include "tracker/experiments/commands.h"
+#include "tracker/experiments/filter_flags.h"
 
 namespace {
 
@@ -11,19 +12,22 @@ struct Experiment {
   const char* name;
   const char* usage;
   int (*run)(int argc, char** argv);  // argv[1] is the experiment name; flags follow
+  bool filter_flags;                  // also takes the filter's options (filter_flags.h)
 };
 
 constexpr Experiment kExperiments[] = {
-    {"hand", mocap::kHandUsage, mocap::runHandCommand},
-    {"human", mocap::kHumanUsage, mocap::runHumanCommand},
-    {"bvh-fit", mocap::kBvhFitUsage, mocap::runBvhFitCommand},
-    {"silhouette", mocap::kSilhouetteUsage, mocap::runSilhouetteCommand},
-    {"calibration", mocap::kCalibrationUsage, mocap::runCalibrationCommand},
+    {"hand", mocap::kHandUsage, mocap::runHandCommand, true},
+    {"human", mocap::kHumanUsage, mocap::runHumanCommand, true},
+    {"bvh-fit", mocap::kBvhFitUsage, mocap::runBvhFitCommand, false},
+    {"silhouette", mocap::kSilhouetteUsage, mocap::runSilhouetteCommand, false},
+    {"calibration", mocap::kCalibrationUsage, mocap::runCalibrationCommand, false},
 };
 
 void printUsage() {
   std::cerr << "usage: mocap-experiment <experiment> [flags]\n";
   for (const Experiment& e : kExperiments) std::cerr << "  " << e.usage << "\n";
+  std::cerr << "  hand and human also take the filter's options:\n"
+            << mocap::filterFlagsUsage("       ") << "\n";
 }
 
 }  // namespace
@@ -40,6 +44,7 @@ int main(int argc, char** argv) {
       const std::string flag = argv[i];
       if (flag == "--help" || flag == "-h") {
         std::cout << "usage: mocap-experiment " << e.usage << "\n";
+        if (e.filter_flags) std::cout << mocap::filterFlagsUsage("       ") << "\n";
         return 0;
       }
     }

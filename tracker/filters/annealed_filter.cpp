@@ -49,8 +49,6 @@ class AnnealedFilter final : public PoseFilter {
         pool_(pool),
         rng_(options.seed),
         evaluator_(model, rig, options.likelihood.points_per_circle, pool.size()) {
-    if (options.annealing_layers < 1)
-      throw std::invalid_argument("annealed filter: annealing layers must be >= 1");
     particle_count_ = std::max(1, options.evaluations_per_frame / options.annealing_layers);
   }
 
@@ -117,6 +115,7 @@ class AnnealedFilter final : public PoseFilter {
 
 std::unique_ptr<PoseFilter> makeAnnealedFilter(const BodyModel& model, const Rig& rig,
                                                const FilterOptions& options, WorkerPool& pool) {
+  validateFilterOptions(options);
   return std::make_unique<AnnealedFilter>(model, rig, options, pool);
 }
 

@@ -65,6 +65,7 @@ class CondensationFilter final : public PoseFilter {
 
 std::unique_ptr<PoseFilter> makeCondensationFilter(const BodyModel& model, const Rig& rig,
                                                    const FilterOptions& options, WorkerPool& pool) {
+  validateFilterOptions(options);
   return std::make_unique<CondensationFilter>(model, rig, options, pool);
 }
 

@@ -68,7 +68,7 @@ FrameEstimate FactoredFilter::step(const std::vector<SilhouetteMask>& masks) {
   double injection_debt = 0;
   for (const FactoredLayer& layer : plan_.layers) {
     const int count = generateCandidates(layer, injection_debt);
-    if (layer.lookahead && options_.lookahead == FilterOptions::Lookahead::kBody) {
+    if (layer.lookahead) {
       const int parents = static_cast<int>(particles_.size());
       pool_.parallelFor(parents, [&](int p, int worker) { placeRest(layer, p, masks, worker); });
       for (const RestOfBody& rest : rest_) estimate.segment_renders += rest.renders;
@@ -152,12 +152,12 @@ int FactoredFilter::generateCandidates(const FactoredLayer& layer, double& injec
   // Positions have no bounded static distribution (a root uniform over a 20 m room lands off
   // every camera, where an empty footprint outscores a misplaced body): inject joint angles only,
   // carrying the share over to the next rotation layer.
-  injection_debt += options_.injection_share * count;
+  injection_debt += options_.injection.share * count;
   if (dof.type == DofType::kTranslation) return count;
   const int injected = std::min(count, static_cast<int>(injection_debt));
   injection_debt -= injected;
   const bool whole_segment =
-      options_.injection == FilterOptions::Injection::kSegment && layer.first_dof;
+      options_.injection.redraw == InjectionOptions::Redraw::kSegment && layer.first_dof;
   for (int k = 0; k < injected; ++k) {
     Eigen::VectorXd& q = candidates_[count - 1 - k].q;
     if (!whole_segment) {
@@ -252,7 +252,7 @@ void FactoredFilter::evaluate(const FactoredLayer& layer, int i, int same_pose,
   }
   cand.log_weight += logLikelihood(options_.likelihood, counts);
   cand.selection = cand.log_weight;
-  if (layer.lookahead) rankByLookahead(layer, i, counts, masks, scratch);
+  if (layer.lookahead) rankByLookahead(layer, i, masks, scratch);
 }
 
 void FactoredFilter::keepBest(const FactoredLayer& layer, int count) {
@@ -299,11 +299,12 @@ void FactoredFilter::finishFrame(FrameEstimate& estimate) {
   }
   weightedEstimate(qs, lw, estimate);
   // Kept sorted best first; a refined best particle is the estimate.
-  if (options_.estimate_best || refinement_) estimate.q = particles_[0].q;
+  if (refinement_) estimate.q = particles_[0].q;
 }
 
 std::unique_ptr<PoseFilter> makeFactoredFilter(const BodyModel& model, const Rig& rig,
                                                const FilterOptions& options, WorkerPool& pool) {
+  validateFilterOptions(options);
   return std::make_unique<FactoredFilter>(model, rig, options, pool);
 }
 

@@ -1,7 +1,7 @@
 // The look-ahead a layer of the factored filter may rank its candidates by
-// (FilterOptions::Lookahead), an addition to the paper: the candidate's segment counted with its
-// descendants (kRoot, kSubtree) or with the whole body (kBody) at their previous relative pose,
-// while each particle's weight keeps only the paper's factor.
+// (FilterOptions::Lookahead::kBody), an addition to the paper: the candidate's segment counted with
+// the whole body, the segments not placed yet at their previous relative pose, while each
+// particle's weight keeps only the paper's factor.
 #include <algorithm>
 
 #include "tracker/filters/factored_filter.h"
@@ -9,18 +9,12 @@
 
 namespace mocap {
 
-void FactoredFilter::rankByLookahead(const FactoredLayer& layer, int i, const PixelCounts& counts,
+void FactoredFilter::rankByLookahead(const FactoredLayer& layer, int i,
                                      const std::vector<SilhouetteMask>& masks,
                                      WorkerScratch& scratch) {
   FactoredCandidate& cand = candidates_[i];
   const FactoredParticle& parent = particles_[cand.parent];
   const int s = layer.segment;
-  if (options_.lookahead != FilterOptions::Lookahead::kBody) {
-    cand.selection =
-        parent.log_weight +
-        logLikelihood(options_.likelihood, counts + lookAhead(s, cand, i, masks, scratch));
-    return;
-  }
   // The whole body: the parent's placed segments and the rest at their previous pose (counted
   // once per parent), then this candidate's segment and subtree over what those explain.
   const RestOfBody& rest = rest_[cand.parent];

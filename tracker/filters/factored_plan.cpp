@@ -19,21 +19,6 @@ std::vector<std::vector<int>> findDescendants(const BodyModel& model) {
   return descendants;
 }
 
-bool usesLookahead(const BodyModel& model, const FilterOptions& options,
-                   const std::vector<std::vector<int>>& descendants, int s) {
-  switch (options.lookahead) {
-    case FilterOptions::Lookahead::kNone:
-      return false;
-    case FilterOptions::Lookahead::kRoot:
-      return model.segments[s].parent < 0;
-    case FilterOptions::Lookahead::kSubtree:
-      return !descendants[s].empty();
-    case FilterOptions::Lookahead::kBody:
-      return true;
-  }
-  return false;
-}
-
 // One layer per free DOF of each moving segment, in model order (topological: a parent comes
 // before its children); a moving segment without free DOFs gets an observation layer.
 void buildLayers(const BodyModel& model, const FilterOptions& options, FactoredPlan& plan) {
@@ -51,7 +36,7 @@ void buildLayers(const BodyModel& model, const FilterOptions& options, FactoredP
     for (int d : seg.dofs) {
       if (!model.dofs[d].isFree()) continue;
       plan.layers.push_back(
-          {si, d, usesLookahead(model, options, plan.descendants, si), free_count == 0});
+          {si, d, options.lookahead == FilterOptions::Lookahead::kBody, free_count == 0});
       ++free_count;
     }
     // Moved only by its ancestors: observed once so the chain masks what it explains.
@@ -63,9 +48,6 @@ void buildLayers(const BodyModel& model, const FilterOptions& options, FactoredP
 
 FactoredPlan makeFactoredPlan(const BodyModel& model, const Rig& rig,
                               const FilterOptions& options) {
-  if (options.keep < 1) throw std::invalid_argument("factored filter: keep must be >= 1");
-  if (options.injection_share < 0 || options.injection_share >= 1)
-    throw std::invalid_argument("factored filter: injection share must be in [0, 1)");
   FactoredPlan plan;
   plan.descendants = findDescendants(model);
   buildLayers(model, options, plan);
@@ -73,29 +55,23 @@ FactoredPlan makeFactoredPlan(const BodyModel& model, const Rig& rig,
       plan.layers.begin(), plan.layers.end(), [](const FactoredLayer& l) { return l.dof >= 0; }));
   const int observation_layers = static_cast<int>(plan.layers.size()) - sampling_layers;
   plan.samples = options.samples;
-  if (options.refine_share < 0 || options.refine_share >= 1)
-    throw std::invalid_argument("factored filter: refine share must be in [0, 1)");
-  if (options.refine_max_evaluations < 0)
-    throw std::invalid_argument("factored filter: refine_max_evaluations must be >= 0");
-  if (options.refine_facing_prior < 0)
-    throw std::invalid_argument("factored filter: facing prior must be >= 0");
   if (plan.samples <= 0) {
-    const double budget = options.evaluations_per_frame * (1 - options.refine_share) -
+    const double budget = options.evaluations_per_frame * (1 - options.refine.share) -
                           observation_layers * options.keep;
     plan.samples = std::max(
         1, static_cast<int>(std::lround(budget / std::max(1, sampling_layers * options.keep))));
     // An even count never samples the interval's centre (the previous value). With a
     // refinement, which takes what the layers leave, the count is made odd at no loss of budget.
-    if (options.refine_share > 0 && plan.samples % 2 == 0) --plan.samples;
+    if (options.refine.share > 0 && plan.samples % 2 == 0) --plan.samples;
   }
   plan.candidates_per_layer = options.keep * plan.samples;
-  if (options.refine_share > 0) {
+  if (options.refine.share > 0) {
     // The refinement takes what the layers leave of the budget.
     const int layer_evaluations =
         sampling_layers * plan.candidates_per_layer + observation_layers * options.keep;
     int evaluations = std::max(2, options.evaluations_per_frame - layer_evaluations);
-    if (options.refine_max_evaluations > 0)
-      evaluations = std::min(evaluations, std::max(2, options.refine_max_evaluations));
+    if (options.refine.max_evaluations > 0)
+      evaluations = std::min(evaluations, std::max(2, options.refine.max_evaluations));
     std::vector<int> dofs;
     for (const FactoredLayer& layer : plan.layers)
       if (layer.dof >= 0) dofs.push_back(layer.dof);

@@ -13,27 +13,11 @@ std::unique_ptr<PoseFilter> makeFilter(const std::string& method, const BodyMode
   if (rig.empty() || rig.size() > kMaxCameras)
     throw std::invalid_argument("filter: the rig must have 1 to " + std::to_string(kMaxCameras) +
                                 " cameras");
-  if (options.evaluations_per_frame < 1)
-    throw std::invalid_argument("filter: evaluations per frame must be positive");
   if (method == "factored") return makeFactoredFilter(model, rig, options, pool);
   if (method == "condensation") return makeCondensationFilter(model, rig, options, pool);
   if (method == "annealed") return makeAnnealedFilter(model, rig, options, pool);
   throw std::invalid_argument("unknown filter method '" + method +
                               "' (expected factored, condensation or annealed)");
-}
-
-FilterOptions::Lookahead parseLookahead(const std::string& name) {
-  if (name == "none") return FilterOptions::Lookahead::kNone;
-  if (name == "root") return FilterOptions::Lookahead::kRoot;
-  if (name == "subtree") return FilterOptions::Lookahead::kSubtree;
-  if (name == "body") return FilterOptions::Lookahead::kBody;
-  throw std::invalid_argument("lookahead: expected none, root, subtree or body, got '" + name + "'");
-}
-
-FilterOptions::Injection parseInjection(const std::string& name) {
-  if (name == "dof") return FilterOptions::Injection::kDof;
-  if (name == "segment") return FilterOptions::Injection::kSegment;
-  throw std::invalid_argument("injection: expected dof or segment, got '" + name + "'");
 }
 
 void resampleSystematic(const std::vector<double>& log_weights,
@@ -75,19 +59,6 @@ void weightedEstimate(const std::vector<const Eigen::VectorXd*>& particles,
   for (std::size_t i = 0; i < w.size(); ++i)
     spread += (w[i] / sum) * (*particles[i] - out.q).squaredNorm();
   out.spread = std::sqrt(spread);
-}
-
-FilterOptions humanFilterDefaults() {
-  FilterOptions options;
-  options.lookahead = FilterOptions::Lookahead::kBody;
-  options.injection = FilterOptions::Injection::kSegment;
-  options.injection_share = 0.05;
-  options.refine_share = 0.4;
-  options.refine_hold = true;
-  options.refine_plant = true;
-  options.refine_restart_share = 0.14;
-  options.refine_facing_prior = 16;
-  return options;
 }
 
 }  // namespace mocap

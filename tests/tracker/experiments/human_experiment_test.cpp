@@ -160,7 +160,7 @@ TEST(HumanExperiment, BadOptionsAreNamed) {
 // The first frames of the walk tracked by the layers alone (no refinement).
 HumanExperimentConfig shortWalk(int frames) {
   HumanExperimentConfig config = walk(frames);
-  config.filter.refine_share = 0;
+  config.filter.refine.share = 0;
   return config;
 }
 
@@ -170,7 +170,7 @@ HumanExperimentConfig shortWalk(int frames) {
 TEST(HumanExperiment, SpeedScaleSlowsTheTrackerNotTheTruth) {
   REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = shortWalk(25);
-  config.filter.injection_share = 0;
+  config.filter.injection.share = 0;
   const nlohmann::json as_is = runHumanExperiment(config);
   config.speed_scale = 0.05;
   const nlohmann::json slowed = runHumanExperiment(config);

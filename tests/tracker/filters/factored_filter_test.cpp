@@ -46,7 +46,7 @@ TEST(FactoredFilter, BudgetScalesTheSamplesPerInterval) {
 
 TEST(FactoredFilter, ResultsDoNotDependOnTheThreadCount) {
   FilterOptions options;
-  options.injection_share = 0.1;  // exercise the random part too
+  options.injection.share = 0.1;  // exercise the random part too
   options.seed = 77;
   testing_support::expectSameEstimatesForThreadCounts("factored", options, {1, 2, 3}, 6);
 }
@@ -58,7 +58,7 @@ TEST(FactoredFilter, CandidatesAtOnePoseShareOneRasterization) {
   HandScene scene;
   WorkerPool pool(1);
   FilterOptions options;
-  options.injection_share = 0;
+  options.injection.share = 0;
   auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
   const Eigen::VectorXd q = generateMotion(scene.model, 1, 3)[0];
   filter->reset(q);
@@ -70,21 +70,19 @@ TEST(FactoredFilter, CandidatesAtOnePoseShareOneRasterization) {
 TEST(FactoredFilter, LookAheadKeepsTheBudgetAndThreadIndependence) {
   HandScene scene;
   const Motion motion = generateMotion(scene.model, 4, 6);
-  for (auto mode : {FilterOptions::Lookahead::kSubtree, FilterOptions::Lookahead::kBody}) {
-    FilterOptions options;
-    options.lookahead = mode;
-    WorkerPool pool(1);
-    auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
-    filter->reset(motion[0]);
-    FrameEstimate e;
-    for (const auto& q : motion) {
-      e = filter->step(scene.masks(q));
-      EXPECT_EQ(e.evaluations, 375);  // the look-ahead costs renders, not evaluations
-      EXPECT_GT(e.segment_renders, 375);
-    }
-    EXPECT_LT(scene.pointError(e.q, motion.back()), 0.01);
-    testing_support::expectSameEstimatesForThreadCounts("factored", options, {1, 2}, 4);
+  FilterOptions options;
+  options.lookahead = FilterOptions::Lookahead::kBody;
+  WorkerPool pool(1);
+  auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
+  filter->reset(motion[0]);
+  FrameEstimate e;
+  for (const auto& q : motion) {
+    e = filter->step(scene.masks(q));
+    EXPECT_EQ(e.evaluations, 375);  // the look-ahead costs renders, not evaluations
+    EXPECT_GT(e.segment_renders, 375);
   }
+  EXPECT_LT(scene.pointError(e.q, motion.back()), 0.01);
+  testing_support::expectSameEstimatesForThreadCounts("factored", options, {1, 2}, 4);
 }
 
 TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {
@@ -100,7 +98,7 @@ TEST(FactoredFilter, InjectionRecoversAJointBeyondTheSpeedLimit) {
   auto mcpErrorAfter = [&](double share, int frames) {
     WorkerPool pool(1);
     FilterOptions options;
-    options.injection_share = share;
+    options.injection.share = share;
     auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
     filter->reset(start);
     FrameEstimate e;
@@ -144,12 +142,12 @@ segments:
     forwardKinematics(model, b, truth);
     return (pointPositions(model, a)[0] - pointPositions(model, b)[0]).norm();
   };
-  auto trackedHandError = [&](FilterOptions::Injection injection) {
+  auto trackedHandError = [&](InjectionOptions::Redraw redraw) {
     WorkerPool pool(1);
     FilterOptions options;
     options.evaluations_per_frame = 200;
-    options.injection_share = 0.2;
-    options.injection = injection;
+    options.injection.share = 0.2;
+    options.injection.redraw = redraw;
     auto filter = makeFilter("factored", model, rig, options, pool);
     filter->reset(start);
     FrameEstimate e;
@@ -157,21 +155,8 @@ segments:
     return handError(e.q);
   };
   ASSERT_GT(handError(start), 0.5);
-  EXPECT_LT(trackedHandError(FilterOptions::Injection::kSegment), 0.03);
-  EXPECT_GT(trackedHandError(FilterOptions::Injection::kDof), 0.2);
-}
-
-TEST(FactoredFilter, OptionNamesAreParsedAndBadOnesNamed) {
-  EXPECT_EQ(parseInjection("segment"), FilterOptions::Injection::kSegment);
-  EXPECT_EQ(parseInjection("dof"), FilterOptions::Injection::kDof);
-  EXPECT_EQ(parseLookahead("body"), FilterOptions::Lookahead::kBody);
-  try {
-    parseInjection("limb");
-    FAIL() << "expected invalid_argument";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("'limb'"), std::string::npos) << e.what();
-  }
-  EXPECT_THROW(parseLookahead("everything"), std::invalid_argument);
+  EXPECT_LT(trackedHandError(InjectionOptions::Redraw::kSegment), 0.03);
+  EXPECT_GT(trackedHandError(InjectionOptions::Redraw::kDof), 0.2);
 }
 
 TEST(FactoredFilter, FrozenDofsGetNoLayersAndKeepTheirValue) {

@@ -57,7 +57,7 @@ void PoseSearch::searchAndKeep(const std::vector<int>& dofs, int poses, double m
                                double& best) {
   std::vector<double>& steps = steps_;
   steps.clear();
-  for (int d : dofs) steps.push_back(options_.refine_step * model_.dofs[d].max_speed);
+  for (int d : dofs) steps.push_back(kFirstRefineStep * model_.dofs[d].max_speed);
   const int search_start = budget_;
   for (int swept_from = -1;
        search_start - budget_ < poses && budget_ > 1 && budget_ != swept_from;) {

@@ -14,6 +14,9 @@
 
 namespace mocap {
 
+// The pattern search's first step, in speed limits of each DOF.
+inline constexpr double kFirstRefineStep = 0.5;
+
 // Scratch of a move that draws poses and searches around the best: the pose being tried and the
 // best found so far.
 struct MoveScratch {

@@ -27,7 +27,7 @@ void Refinement::run(const std::vector<SilhouetteMask>& masks, const std::functi
   const long renders_before = evaluator_.renders();
   double best = search_.start(q, masks, plan_.evaluations - 1);
   for (std::size_t i = 0; i < plan_.dofs.size(); ++i) {
-    steps_[i] = options_.refine_step * model_.dofs[plan_.dofs[i]].max_speed;
+    steps_[i] = kFirstRefineStep * model_.dofs[plan_.dofs[i]].max_speed;
     hold_steps_[i] = steps_[i];
   }
   runMoves(masks, rng, q, best);
@@ -44,9 +44,9 @@ void Refinement::runMoves(const std::vector<SilhouetteMask>& masks, std::mt19937
     restartLimb(model_, limb, plan_.restart_draws, search_, move_, rng, q, best);
   }
   if (!plan_.swap.pairs.empty())
-    swapLegs(model_, plan_.swap, options_.likelihood.beta * options_.refine_swap_margin, search_,
+    swapLegs(model_, plan_.swap, options_.likelihood.beta * options_.refine.swap.margin, search_,
              move_, q, best);
-  if (options_.refine_unexplained)
+  if (options_.refine.unexplained)
     chaseUnexplained(model_, rig_, plan_.legs, masks, search_, chase_, q, best);
 }
 
@@ -84,7 +84,7 @@ void Refinement::stepHeldOrPlanted(std::size_t i, Eigen::VectorXd& q, double& be
                     [&](const Eigen::VectorXd& at, Eigen::VectorXd& tried) {
                       holdChildren(model_, held, at, tried);
                     });
-  } else if (options_.refine_plant && !plan_.legs.empty() && model_.dofs[d].segment == 0 &&
+  } else if (options_.refine.plant && !plan_.legs.empty() && model_.dofs[d].segment == 0 &&
              model_.dofs[d].type == DofType::kTranslation) {
     search_.stepDof(d, hold_steps_[i], q, best, 0,
                     [&](const Eigen::VectorXd& at, Eigen::VectorXd& tried) {

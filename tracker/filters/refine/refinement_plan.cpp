@@ -13,15 +13,15 @@ RefinementPlan makeRefinementPlan(const BodyModel& model, const FilterOptions& o
   plan.evaluations = evaluations;
   plan.dofs = std::move(dofs);
   plan.held.resize(plan.dofs.size());
-  if (options.refine_hold) plan.held = findHeldChildren(model, plan.dofs);
-  if (options.refine_plant || options.refine_unexplained) plan.legs = findLegs(model);
-  if (options.refine_swap) plan.swap = findSwappedLegs(model, options.refine_swap_knees_only);
-  if (options.refine_restart_share > 0) plan.restart_limbs = findRestartLimbs(model, descendants);
-  if (options.refine_facing_prior > 0)
-    plan.facing = makeFacingPrior(model, options.refine_facing_prior);
+  if (options.refine.hold) plan.held = findHeldChildren(model, plan.dofs);
+  if (options.refine.plant || options.refine.unexplained) plan.legs = findLegs(model);
+  if (options.refine.swap.enabled) plan.swap = findSwappedLegs(model, options.refine.swap.knees_only);
+  if (options.refine.restart_share > 0) plan.restart_limbs = findRestartLimbs(model, descendants);
+  if (options.refine.facing_prior > 0)
+    plan.facing = makeFacingPrior(model, options.refine.facing_prior);
   // Each draw is followed by up to 3 poses of local search.
   plan.restart_draws =
-      static_cast<int>(std::lround(options.refine_restart_share * evaluations / 4));
+      static_cast<int>(std::lround(options.refine.restart_share * evaluations / 4));
   return plan;
 }
 

@@ -29,7 +29,7 @@ TEST(FactoredFilter, RefinementChasingTheUnexplainedSilhouetteFindsALostLeg) {
   const std::vector<SilhouetteMask> masks = silhouettes(model, rig, truth);
   const auto hipError = [&](bool chase) {
     FilterOptions options;
-    options.refine_unexplained = chase;
+    options.refine.unexplained = chase;
     return std::abs(refineAlone(model, rig, masks, start, options)[1] - truth[1]) / deg;
   };
   EXPECT_LT(hipError(true), 3);

@@ -69,8 +69,8 @@ segments:
 
   auto trackedYaw = [&](double facing_prior) {
     FilterOptions options;
-    options.refine_hold = true;
-    options.refine_facing_prior = facing_prior;
+    options.refine.hold = true;
+    options.refine.facing_prior = facing_prior;
     return std::abs(refineAlone(model, rig, masks, start, options)[0]) / deg;
   };
   // Weak: where the silhouettes tie it decides; a strong prior on this small body also untwists

@@ -30,7 +30,7 @@ TEST(FactoredFilter, RefinementHoldingTheChildrenUndoesATurnedPelvis) {
 
   auto trackedYaw = [&](bool hold) {
     FilterOptions options;
-    options.refine_hold = hold;
+    options.refine.hold = hold;
     return std::abs(refineAlone(model, rig, masks, start, options)[0]) / deg;
   };
   EXPECT_LT(trackedYaw(true), 3);

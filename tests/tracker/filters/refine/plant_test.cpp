@@ -39,9 +39,9 @@ TEST(FactoredFilter, RefinementPlantingTheFeetFollowsASquat) {
     WorkerPool pool(1);
     FilterOptions options;
     options.evaluations_per_frame = 400;
-    options.refine_share = 0.95;
-    options.injection_share = 0;
-    options.refine_plant = plant;
+    options.refine.share = 0.95;
+    options.injection.share = 0;
+    options.refine.plant = plant;
     auto filter = makeFilter("factored", model, rig, options, pool);
     filter->reset(start);
     return std::abs(filter->step(masks).q[0] - truth[0]);

@@ -54,8 +54,8 @@ inline Eigen::VectorXd refineAlone(const BodyModel& model, const Rig& rig,
                                    const Eigen::VectorXd& start, FilterOptions options) {
   WorkerPool pool(1);
   options.evaluations_per_frame = 400;
-  options.refine_share = 0.95;
-  options.injection_share = 0;
+  options.refine.share = 0.95;
+  options.injection.share = 0;
   auto filter = makeFilter("factored", model, rig, options, pool);
   filter->reset(start);
   FrameEstimate e;

@@ -25,8 +25,8 @@ TEST(FactoredFilter, RefinementTakesWhatTheLayersLeaveOfTheBudgetUpToItsCap) {
   for (const auto& [share, cap, spent] :
        {std::tuple{0.2, 0, 375}, {0.4, 0, 375}, {0.7, 0, 375}, {0.2, 30, 255}, {0.2, 500, 375}}) {
     FilterOptions options;
-    options.refine_share = share;
-    options.refine_max_evaluations = cap;
+    options.refine.share = share;
+    options.refine.max_evaluations = cap;
     WorkerPool pool(1);
     auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
     filter->reset(motion[0]);
@@ -37,10 +37,10 @@ TEST(FactoredFilter, RefinementTakesWhatTheLayersLeaveOfTheBudgetUpToItsCap) {
   }
   WorkerPool pool(1);
   FilterOptions bad;
-  bad.refine_share = 1.0;
+  bad.refine.share = 1.0;
   EXPECT_THROW(makeFilter("factored", scene.model, scene.rig, bad, pool), std::invalid_argument);
-  bad.refine_share = 0.2;
-  bad.refine_max_evaluations = -1;
+  bad.refine.share = 0.2;
+  bad.refine.max_evaluations = -1;
   EXPECT_THROW(makeFilter("factored", scene.model, scene.rig, bad, pool), std::invalid_argument);
 }
 
@@ -54,7 +54,7 @@ TEST(FactoredFilter, RefinementEndsNearerTheTruthAtTheSameBudget) {
     for (uint64_t seed : {3, 9, 21}) {
       const Eigen::VectorXd truth = generateMotion(scene.model, 1, seed)[0];
       FilterOptions options;
-      options.refine_share = refined ? 0.4 : 0.0;
+      options.refine.share = refined ? 0.4 : 0.0;
       WorkerPool pool(1);
       auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
       filter->reset(scene.perturbed(truth, 0.7));
@@ -74,7 +74,7 @@ TEST(FactoredFilter, RefinementStopsWhenNoStepMovesAnyMore) {
   const auto masks = scene.masks(truth);
   FilterOptions options;
   options.evaluations_per_frame = 100000;
-  options.refine_share = 0.95;
+  options.refine.share = 0.95;
   WorkerPool pool(1);
   auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
   filter->reset(truth);
@@ -89,7 +89,7 @@ TEST(FactoredFilter, RefinementYieldsToANewerFrameWhenAsked) {
   HandScene scene;
   const Motion motion = generateMotion(scene.model, 3, 5);
   FilterOptions options;
-  options.refine_share = 0.4;  // 15 layers x 5 x 3 = 225, so the refinement gets 150
+  options.refine.share = 0.4;  // 15 layers x 5 x 3 = 225, so the refinement gets 150
   auto run = [&](const std::function<bool()>& yield) {
     WorkerPool pool(1);
     auto filter = makeFilter("factored", scene.model, scene.rig, options, pool);
@@ -118,8 +118,8 @@ TEST(FactoredFilter, RefinementYieldsToANewerFrameWhenAsked) {
 
 TEST(FactoredFilter, RefinementDoesNotDependOnTheThreadCount) {
   FilterOptions options;
-  options.refine_share = 0.4;
-  options.injection_share = 0.1;
+  options.refine.share = 0.4;
+  options.injection.share = 0.1;
   options.lookahead = FilterOptions::Lookahead::kBody;
   testing_support::expectSameEstimatesForThreadCounts("factored", options, {1, 2}, 4);
 }

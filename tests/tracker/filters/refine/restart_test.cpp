@@ -36,7 +36,7 @@ TEST(FactoredFilter, RefinementRestartsRecoverALimbFarFromItsSilhouette) {
   };
   auto trackedFootError = [&](double share) {
     FilterOptions options;
-    options.refine_restart_share = share;
+    options.refine.restart_share = share;
     return footError(refineAlone(model, rig, masks, start, options));
   };
   ASSERT_GT(footError(start), 1.0);

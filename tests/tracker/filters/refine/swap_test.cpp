@@ -32,7 +32,7 @@ TEST(FactoredFilter, RefinementSwappingTheLegsUndoesAStrideTrackedTheWrongWayRou
   const std::vector<SilhouetteMask> masks = silhouettes(model, rig, truth);
   const auto worstAngleError = [&](bool swap) {
     FilterOptions options;
-    options.refine_swap = swap;
+    options.refine.swap.enabled = swap;
     const Eigen::VectorXd angles = refineAlone(model, rig, masks, start, options).tail(4);
     return (angles - truth.tail(4)).cwiseAbs().maxCoeff() / deg;
   };
@@ -47,8 +47,8 @@ TEST(FactoredFilter, RefinementSwappingTheLegsUndoesAStrideTrackedTheWrongWayRou
   const std::vector<SilhouetteMask> bent_masks = silhouettes(model, rig, bent);
   const auto kneeError = [&](bool knees_only) {
     FilterOptions options;
-    options.refine_swap = true;
-    options.refine_swap_knees_only = knees_only;
+    options.refine.swap.enabled = true;
+    options.refine.swap.knees_only = knees_only;
     const Eigen::VectorXd angles =
         refineAlone(model, rig, bent_masks, knees_crossed, options).tail(4);
     return (angles - bent.tail(4)).cwiseAbs().maxCoeff() / deg;
@@ -59,8 +59,8 @@ TEST(FactoredFilter, RefinementSwappingTheLegsUndoesAStrideTrackedTheWrongWayRou
   // A body without two feet cannot swap its legs, and says so.
   WorkerPool pool(1);
   FilterOptions options;
-  options.refine_share = 0.5;
-  options.refine_swap = true;
+  options.refine.share = 0.5;
+  options.refine.swap.enabled = true;
   try {
     makeFilter("factored", pelvisAndLegs(), rig, options, pool);
     FAIL() << "expected invalid_argument";
