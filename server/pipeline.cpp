@@ -151,7 +151,7 @@ void Pipeline::switchToAppliedBody() {
   // The tracker finds the subject anew, as a daemon started with the fitted body would, the fit
   // pose among its stances: the subject stands in it until the fit answers. The pose tracked with
   // the old body is no start: it fits the new body badly, and its heading was 60-110 degrees off
-  // on the fake scene's subject (see docs/service.md).
+  // on the fake scene's subject (see tracker/experiments/log/service.md).
   makeTrackerFilter(true);  // acquiring: fitBody fits only bodies that can be placed
   logInfo() << "tracking with the fitted body (body version " << body_.version << ")";
 }

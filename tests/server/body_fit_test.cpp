@@ -102,8 +102,8 @@ TEST_F(EndToEndTest, FitsTheBodyToThePersonStandingInTheFitPose) {
   const std::vector<std::string> legs = {"l_thigh", "l_shin", "r_thigh", "r_shin"};
   const std::vector<std::string> arms = {"l_upper_arm", "l_forearm", "l_hand",
                                          "r_upper_arm", "r_forearm", "r_hand"};
-  // For the record (docs/service.md): the factors, and the fitted body's bones against the
-  // built-in human's, the subject's in brackets.
+  // For the record (tracker/experiments/log/service.md): the factors, and the fitted body's bones
+  // against the built-in human's, the subject's in brackets.
   std::printf("fitted from %u frame sets in %.2f s, scale %.3f; factors:", fitted.frame_sets_used(),
               fitted.fit_seconds(), fitted.scale());
   for (const v1::BodyProportion& proportion : fitted.proportions())
@@ -248,10 +248,10 @@ TEST_F(EndToEndTest, TracksWithTheFittedBodyOnceAFitIsApplied) {
   // The fitted body explains the silhouettes of the same standing, turning subject better than
   // the built-in human (28 % longer arms, 6 % longer legs) could, over 6 s of it: within them the
   // fitted body can lose a limb for 2 s or so and find it again (silhouette fit 0.71-0.81 against
-  // 0.89-0.92; docs/service.md), so a 2 s window failed once in CI. The joints' error is printed,
-  // not asserted: an A-pose seen by two cameras looks much the same from behind, and a tracker
-  // that takes the subject facing the other way is about 400 mm off with silhouettes just as well
-  // explained.
+  // 0.89-0.92; tracker/experiments/log/service.md), so a 2 s window failed once in CI. The joints'
+  // error is printed, not asserted: an A-pose seen by two cameras looks much the same from behind,
+  // and a tracker that takes the subject facing the other way is about 400 mm off with silhouettes
+  // just as well explained.
   const std::vector<v1::Pose> after = readPoses(*stub, 150, ofVersion(1));
   ASSERT_EQ(after.size(), 150u);
   const double before_fit = median(before, &v1::Pose::silhouette_fit);

@@ -144,7 +144,7 @@ TEST_F(EndToEndTest, TracksAPersonOnExtractedSilhouettesAfterTheEmptyRoomIsLearn
   // 54.7 once in CI and 50.6 once under ctest -j2 (the walk's kneel, in the first 4 s, is lost in
   // some runs whatever the silhouettes, and a loaded machine skips frame sets). Bounded at 75 mm,
   // above that spread and far below a failed extraction; the accuracy itself is measured by the
-  // benches in docs/service.md.
+  // benches in tracker/experiments/log/service.md.
   const double error = median(poses, &v1::Pose::reference_error_mm);
   std::printf("extracted silhouettes: median error %.1f mm over the first 50 poses\n", error);
   EXPECT_LT(error, 75.0);
