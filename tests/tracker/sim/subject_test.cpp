@@ -373,10 +373,11 @@ TEST(Subject, TheTestSceneDrawsAPersonLayer) {
 }
 
 // Pictures of each clothing variant from the lab rig's cameras, side by side per camera, for a
-// person to look at: written when MOCAP_SUBJECT_PICTURES names a directory.
+// person to look at: written to MOCAP_SUBJECT_PICTURES when it names a directory, else to the
+// test's temporary directory. Each variant must show a person in every camera.
 TEST(Subject, Pictures) {
-  const char* dir = std::getenv("MOCAP_SUBJECT_PICTURES");
-  if (!dir) GTEST_SKIP() << "set MOCAP_SUBJECT_PICTURES to a directory to write pictures";
+  const char* named = std::getenv("MOCAP_SUBJECT_PICTURES");
+  const std::string dir = named ? named : ::testing::TempDir();
   const BodyModel model = builtinHumanModel();
   const Rig rig = labRigFor(model);
   std::vector<cv::Mat> strips(rig.size());
@@ -391,6 +392,7 @@ TEST(Subject, Pictures) {
     std::vector<PersonLayer> layers;
     renderer.renderLayers(stridePose(model), layers);
     for (std::size_t cam = 0; cam < rig.size(); ++cam) {
+      EXPECT_GT(cv::countNonZero(layers[cam].mask), 5000) << "variant " << v << ", camera " << cam;
       cv::Mat picture(layers[cam].colour.size(), CV_8UC3, cv::Scalar(200, 200, 200));
       layers[cam].colour.copyTo(picture, layers[cam].mask);
       const cv::Rect box = cv::boundingRect(layers[cam].mask);
@@ -406,7 +408,7 @@ TEST(Subject, Pictures) {
     }
   }
   for (std::size_t cam = 0; cam < rig.size(); ++cam)
-    cv::imwrite(std::string(dir) + "/subjects_cam" + std::to_string(cam) + ".png", strips[cam]);
+    EXPECT_TRUE(cv::imwrite(dir + "/subjects_cam" + std::to_string(cam) + ".png", strips[cam]));
   // A subject in the colour test scene: wall, floor, cast shadow, light and noise.
   TestSceneOptions options;
   const Subject subject(drawSubjectParams(3), subjectJointsAt(model, model.neutralPose()));
@@ -421,7 +423,7 @@ TEST(Subject, Pictures) {
   SilhouetteTestScene scene(options);
   TestSceneFrame frame;
   scene.render(10, true, frame);
-  cv::imwrite(std::string(dir) + "/subject_in_test_scene.png", frame.image);
+  EXPECT_TRUE(cv::imwrite(dir + "/subject_in_test_scene.png", frame.image));
 }
 
 }  // namespace
