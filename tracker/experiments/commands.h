@@ -18,7 +18,13 @@ inline constexpr const char* kHumanUsage =
     "       [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
     "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
     "       [--subject-scale K] [--tracked-body truth|default|fit]\n"
-    "       [--lost-below FIT [--lost-after N]] [--dropout-at F --dropout-frames N]";
+    "       [--lost-below FIT [--lost-after N]] [--dropout-at F --dropout-frames N]\n"
+    "       [--scenario lab|product] [--subject-seed N] [--silhouettes true|extracted]\n"
+    "       [--motion-units auto|m|cm|mm|cmu|inch] [--motion-joint-map FILE.yaml]\n"
+    "  --scenario product: --tracked-body fit (the subject first stands in the fit pose)\n"
+    "  --start-offset acquire --silhouettes extracted --subject-seed 1 --cameras 2; flags given\n"
+    "  override it. Output: longest_loss_frames, the longest run of frames over 100 mm;\n"
+    "  frames_to_first_lock, the first frame that starts 5 frames in a row under 100 mm.";
 int runHumanCommand(int argc, char** argv);
 
 inline constexpr const char* kBvhFitUsage =

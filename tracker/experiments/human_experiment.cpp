@@ -19,44 +19,14 @@
 #include "tracker/motion/bvh.h"
 #include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/commands.h"
+#include "tracker/experiments/human_scene.h"
+#include "tracker/experiments/human_scoring.h"
 #include "tracker/likelihood/full_body.h"
 #include "tracker/model/kinematics.h"
 #include "tracker/motion/retarget.h"
 #include "tracker/sim/scene.h"
 
 namespace mocap {
-
-void corruptSilhouette(cv::Mat& mask, uint64_t seed, int frame, int camera) {
-  const cv::Rect box = cv::boundingRect(mask);
-  if (box.area() == 0) return;
-  cv::RNG rng(seed * 1000003ULL + static_cast<uint64_t>(frame) * 101ULL +
-              static_cast<uint64_t>(camera) + 1);
-  // Ragged edges: every pixel within a pixel of the outline is decided by a coin.
-  cv::Mat grown, shrunk, band, coin(mask.size(), CV_8UC1);
-  cv::dilate(mask, grown, cv::Mat());
-  cv::erode(mask, shrunk, cv::Mat());
-  cv::bitwise_xor(grown, shrunk, band);
-  rng.fill(coin, cv::RNG::UNIFORM, 0, 2);
-  coin *= 255;
-  coin.copyTo(mask, band);
-  // Holes: a few small blobs inside the body go missing.
-  for (int hole = 0; hole < 4; ++hole) {
-    for (int attempt = 0; attempt < 30; ++attempt) {
-      const cv::Point p(rng.uniform(box.x, box.x + box.width),
-                        rng.uniform(box.y, box.y + box.height));
-      if (!mask.at<uint8_t>(p)) continue;
-      cv::circle(mask, p, rng.uniform(2, 7), cv::Scalar(0), cv::FILLED);
-      break;
-    }
-  }
-  // A shadow on the floor beside the feet, joined to them.
-  const double h = box.height;
-  const int side = rng.uniform(0, 2) ? 1 : -1;
-  const cv::Point centre(static_cast<int>(box.x + 0.5 * box.width + side * 0.25 * h),
-                         static_cast<int>(box.y + box.height - 0.03 * h));
-  cv::ellipse(mask, centre, cv::Size(static_cast<int>(0.28 * h), static_cast<int>(0.045 * h)), 0, 0,
-              360, cv::Scalar(255), cv::FILLED);
-}
 
 namespace {
 
@@ -98,52 +68,7 @@ void writeOverlays(const std::string& dir, int frame, const std::vector<Silhouet
   }
 }
 
-// The four limbs by their model points: a limb lost while the rest is tracked moves the mean over
-// 19 joints by a few centimetres only, so limbs are also scored on their own.
-struct Limb {
-  const char* name;
-  std::vector<int> points;
-};
-std::vector<Limb> limbsOf(const BodyModel& model) {
-  const std::pair<const char*, std::vector<const char*>> kLimbs[] = {
-      {"left_arm", {"l_shoulder", "l_elbow", "l_wrist", "l_hand"}},
-      {"right_arm", {"r_shoulder", "r_elbow", "r_wrist", "r_hand"}},
-      {"left_leg", {"l_hip", "l_knee", "l_ankle", "l_toe"}},
-      {"right_leg", {"r_hip", "r_knee", "r_ankle", "r_toe"}}};
-  std::vector<Limb> limbs;
-  for (const auto& [name, points] : kLimbs) {
-    Limb limb{name, {}};
-    for (const char* point : points)
-      if (const int p = model.pointIndex(point); p >= 0) limb.points.push_back(p);
-    if (!limb.points.empty()) limbs.push_back(std::move(limb));
-  }
-  return limbs;
-}
-
-// The legs' error with the estimate's left leg scored against the truth's right leg and the other
-// way round: well under the legs' own error when the tracker swapped them, a silhouette ambiguity.
-// NaN for legs that do not pair up point for point, which no comparison takes for a swap.
-double legsSwappedError(const Limb& left, const Limb& right,
-                        const std::vector<Eigen::Vector3d>& truth,
-                        const std::vector<Eigen::Vector3d>& estimate) {
-  if (left.points.size() != right.points.size()) return NAN;
-  double sum = 0;
-  for (std::size_t i = 0; i < left.points.size(); ++i)
-    sum += 1000 * ((estimate[left.points[i]] - truth[right.points[i]]).norm() +
-                   (estimate[right.points[i]] - truth[left.points[i]]).norm());
-  return sum / (2 * left.points.size());
-}
-
 }  // namespace
-
-std::string lostFrameCause(double left_leg, double right_leg, double worst_arm,
-                           double heading_error_deg, double legs_swapped) {
-  if (legs_swapped < 0.25 * (left_leg + right_leg)) return "legs_swapped";
-  if (std::abs(heading_error_deg) > 20) return "heading";
-  if (std::max(left_leg, right_leg) > 100) return "legs";
-  if (worst_arm > 100) return "arms";
-  return "other";
-}
 
 nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (config.dofs != 31 && config.dofs != 17)
@@ -155,9 +80,15 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     throw std::invalid_argument("--speed-scale: expected a positive factor");
   if (!config.overlay_dir.empty() && !std::filesystem::is_directory(config.overlay_dir))
     throw std::invalid_argument("--overlay: '" + config.overlay_dir + "' is not a directory");
+  if (config.silhouettes != "true" && config.silhouettes != "extracted")
+    throw std::invalid_argument("--silhouettes: expected true or extracted, got '" +
+                                config.silhouettes + "'");
+  const bool extracted = config.silhouettes == "extracted";
+  if (extracted && config.noise != "none")
+    throw std::invalid_argument("--noise realistic corrupts true silhouettes: not with extracted");
   const BodyModel base =
       config.model_path.empty() ? builtinHumanModel() : loadBodyModel(config.model_path);
-  const Bvh bvh = loadBvh(config.motion_path);
+  const Bvh bvh = loadBvh(config.motion_path, config.bvh);
   // The subject: the BVH's own proportions, optionally all of it `subject_scale` times as large
   // (a smaller or taller person moving the same way, so its root moves that much farther too).
   const BodyModel bvh_body = fitModelToBvh(base, bvh.skeleton);
@@ -190,7 +121,10 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   }
   truth.resize(frames);
   const Rig rig = labRig(config.cameras, model, truth);
-  SceneRenderer renderer(model, rig);
+  // The person the cameras see, in its room when silhouettes are extracted (the background is
+  // learned first, with nobody in view).
+  HumanScene renderer(model, rig, {config.subject_seed, extracted, config.seed}, truth[0]);
+  renderer.learnBackground();
 
   FilterOptions options = config.filter;
   options.evaluations_per_frame = config.evaluations;
@@ -262,7 +196,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
 
   SceneRenderer tracked_renderer(tracked_body, rig);  // draws the estimate in the overlays
   const int missed_limb = model.segmentIndex("l_forearm");
-  KinematicsData kin(model), tracked_kin(tracked_body);
+  KinematicsData tracked_kin(tracked_body);
   Eigen::VectorXd floor_pose = truth[0];
   double body_floor_mm = 0;  // summed over the frames
   IkOptions floor_ik;
@@ -338,8 +272,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     evaluations += estimate.evaluations;
     renders += estimate.segment_renders;
     frames_without_pose += !estimate.found;
-    forwardKinematics(model, kin, truth[f]);
-    const auto true_points = pointPositions(model, kin);
+    const auto true_points = renderer.truthPoints(truth[f]);
     forwardKinematics(tracked_body, tracked_kin, estimate.q);
     const auto tracked_points = pointPositions(tracked_body, tracked_kin);
     double sum = 0;
@@ -482,6 +415,24 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     out["body_fit_evaluations"] = body_fit->evaluations;
     out["body_fit_seconds"] = body_fit_seconds;
   }
+  if (config.reportsProductPath()) {
+    // Fields of the product path's summary, left out of a run that names none of its flags so
+    // that such a run's output stays as it was.
+    out["scenario"] = config.scenario.empty() ? nlohmann::json() : nlohmann::json(config.scenario);
+    out["silhouettes"] = config.silhouettes;
+    out["subject_seed"] =
+        config.subject_seed ? nlohmann::json(*config.subject_seed) : nlohmann::json();
+    out["longest_loss_frames"] = longestLoss(frame_error);
+    const std::optional<int> lock = firstLock(frame_error);
+    out["frames_to_first_lock"] = lock ? nlohmann::json(tracked_frames[*lock]) : nlohmann::json();
+    if (const std::optional<BodyProportions> subject = renderer.subjectProportions(unfitted)) {
+      nlohmann::json proportions = nlohmann::json::object();
+      for (int k = 0; k < BodyProportions::kCount; ++k)
+        proportions[BodyProportions::name(k)] = (*subject)[k];
+      out["subject_proportions"] = proportions;
+      out["subject_height_m"] = renderer.subjectParams()->height;
+    }
+  }
   if (config.skip_rate > 0) {
     out["skip_rate"] = config.skip_rate;
     out["tracked_frames"] = scored;
@@ -513,10 +464,26 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   return out;
 }
 
-int runHumanCommand(int argc, char** argv) {
+HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   const Args args(argc, argv, 2, std::string(kHumanUsage) + "\n" + filterFlagsUsage("       "));
   HumanExperimentConfig config;
+  const std::string scenario = args.text("scenario", "lab");
+  if (scenario == "product") {
+    config.tracked_body = "fit";
+    config.start_offset = "acquire";
+    config.silhouettes = "extracted";
+    config.subject_seed = kProductSubjectSeed;
+    config.cameras = 2;
+  } else if (scenario != "lab") {
+    throw std::invalid_argument("--scenario: expected lab or product, got '" + scenario + "'");
+  }
+  if (args.has("scenario")) config.scenario = scenario;
   config.motion_path = args.text("motion", "");
+  config.bvh.units = parseBvhUnits(args.text("motion-units", "auto"));
+  config.bvh.joint_map = args.text("motion-joint-map", "");
+  config.silhouettes = args.text("silhouettes", config.silhouettes);
+  if (args.has("subject-seed"))
+    config.subject_seed = static_cast<uint64_t>(args.integer("subject-seed", 1, 0, 1L << 62));
   config.method = args.text("method", config.method);
   config.evaluations = static_cast<int>(args.integer("evals", config.evaluations, 1, 10'000'000));
   config.cameras = static_cast<int>(args.integer("cameras", config.cameras, 1, 16));
@@ -540,7 +507,11 @@ int runHumanCommand(int argc, char** argv) {
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");
   readFilterFlags(args, config.filter);
-  std::cout << runHumanExperiment(config).dump(2) << "\n";
+  return config;
+}
+
+int runHumanCommand(int argc, char** argv) {
+  std::cout << runHumanExperiment(parseHumanCommand(argc, argv)).dump(2) << "\n";
   return 0;
 }
 

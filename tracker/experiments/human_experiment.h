@@ -16,6 +16,7 @@
 #include "tracker/model/builtin_models.h"
 #include "tracker/model/camera.h"
 #include "tracker/filters/filter.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/motion.h"
 #include "tracker/sim/scene.h"
 
@@ -37,6 +38,19 @@ inline constexpr int kFitFrames = 5;
 
 struct HumanExperimentConfig {
   std::string motion_path;          // BVH (CMU skeleton)
+  BvhLoadOptions bvh;               // units, joint map
+  // The scenario named on the command line ("lab" or "product", see parseHumanCommand); empty:
+  // none named. Only labels the output.
+  std::string scenario;
+  // The person the cameras see: the motion's body as the tracker's own cones (empty), or the
+  // simulated subject drawSubjectParams(*subject_seed) (tracker/sim/subject.h), posed by the
+  // motion and scored by its own joints. The tracker never reads the subject's parameters.
+  std::optional<uint64_t> subject_seed;
+  // "true": each camera's exact silhouette; "extracted": colour images of the person in a room
+  // (wall, floor, shading, cast shadow, sensor noise; tracker/sim/test_scene.h) from which
+  // SilhouetteExtractor takes it against a background learned first from kBackgroundFrames frames
+  // of the empty room, as mocapd does.
+  std::string silhouettes = "true";
   std::string method = "factored";
   int evaluations = kHumanEvaluations;
   int cameras = 2;
@@ -78,7 +92,24 @@ struct HumanExperimentConfig {
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none
   FilterOptions filter = humanFilterDefaults();  // evaluations and seed: the fields above
+
+  // The output has the product path's fields (scenario, subject_seed, silhouettes,
+  // longest_loss_frames, frames_to_first_lock, subject_proportions): a run naming a scenario, a
+  // subject or extracted silhouettes.
+  bool reportsProductPath() const {
+    return !scenario.empty() || subject_seed.has_value() || silhouettes != "true";
+  }
 };
+
+// The subject seed --scenario product draws when no --subject-seed is given.
+inline constexpr uint64_t kProductSubjectSeed = 1;
+
+// The configuration of `mocap-experiment human` from its flags (argv[2...]). --scenario lab (the
+// default) leaves every default as it is; --scenario product sets --tracked-body fit,
+// --start-offset acquire, --silhouettes extracted, --subject-seed 1 and --cameras 2 (780x580 at
+// 25 Hz, as every run), each overridden by its own flag when given. Throws
+// std::invalid_argument for a bad flag.
+HumanExperimentConfig parseHumanCommand(int argc, char** argv);
 
 nlohmann::json runHumanExperiment(const HumanExperimentConfig& config);
 

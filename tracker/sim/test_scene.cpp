@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
 
@@ -98,10 +99,12 @@ cv::Mat smoothNoise(cv::RNG& rng, cv::Size size, int cell, int channels, double 
 SilhouetteTestScene::SilhouetteTestScene(const TestSceneOptions& options)
     : options_(options),
       model_(parseBodyModel(kPersonYaml, "builtin person")),
-      rig_(sceneRig(options.width, options.height)),
+      rig_(options.camera ? Rig{*options.camera} : sceneRig(options.width, options.height)),
       renderer_(model_, rig_),
       rng_(options.seed * 7919 + 17) {
   const cv::Size size(options.width, options.height);
+  if (rig_[0].width != options.width || rig_[0].height != options.height)
+    throw std::invalid_argument("test scene: the camera's image is not width x height");
   if (options.person) {
     options.person(0, rig_[0], layer_);
   } else {

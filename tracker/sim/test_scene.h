@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 
 #include <opencv2/core.hpp>
 
@@ -19,6 +20,9 @@ namespace mocap {
 struct TestSceneOptions {
   int width = 780;
   int height = 580;
+  // The camera the scene is seen from, of width x height pixels; empty: one 3.9 m in front of the
+  // person, looking at its hips. The wall and floor are painted in the image either way.
+  std::optional<CameraModel> camera;
   bool color = true;     // BGR, else gray
   uint64_t seed = 1;
   double noise_sigma = 2.5;                 // gray levels, per channel

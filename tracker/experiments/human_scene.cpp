@@ -1,0 +1,152 @@
+// The human experiment's cameras: rendered or extracted silhouettes of the model or a subject.
+#include "tracker/experiments/human_scene.h"
+
+#include <stdexcept>
+
+#include "tracker/model/kinematics.h"
+#include "tracker/sim/subject.h"
+#include "tracker/vision/background_model.h"
+
+namespace mocap {
+
+namespace {
+
+// The summed lengths of the bones joining `joints` in order, for joints given in SubjectJoint
+// order (a subject's rest, or a body's joints).
+double chainLength(const SubjectJoints& j, std::initializer_list<int> joints) {
+  double length = 0;
+  for (auto it = joints.begin(); std::next(it) != joints.end(); ++it)
+    length += (j[*std::next(it)] - j[*it]).norm();
+  return length;
+}
+
+BodyProportions proportionsOf(const SubjectJoints& j) {
+  BodyProportions p;
+  p.legs = chainLength(j, {kLHip, kLKnee, kLAnkle, kLToe}) +
+           chainLength(j, {kRHip, kRKnee, kRAnkle, kRToe});
+  p.arms = chainLength(j, {kLShoulder, kLElbow, kLWrist, kLHand}) +
+           chainLength(j, {kRShoulder, kRElbow, kRWrist, kRHand});
+  p.trunk = (j[kNeck] - j[kPelvis]).norm();
+  p.head = (j[kHeadTop] - j[kNeck]).norm();
+  p.width = (j[kLHip] - j[kRHip]).norm() + (j[kLShoulder] - j[kRShoulder]).norm();
+  return p;
+}
+
+}  // namespace
+
+HumanScene::HumanScene(const BodyModel& model, const Rig& rig, const HumanSceneOptions& options,
+                       const Eigen::VectorXd& first_pose)
+    : model_(model), rig_(rig), options_(options), kinematics_(model_) {
+  if (options.subject_seed) {
+    params_ = drawSubjectParams(*options.subject_seed);
+    subject_renderer_ = std::make_unique<SubjectSceneRenderer>(model_, rig_, *params_);
+  } else {
+    model_renderer_ = std::make_unique<SceneRenderer>(model_, rig_);
+  }
+  if (!options.extracted) return;
+  renderLayers(first_pose);
+  for (std::size_t c = 0; c < rig_.size(); ++c) {
+    TestSceneOptions room;
+    room.camera = rig_[c];
+    room.width = rig_[c].width;
+    room.height = rig_[c].height;
+    room.seed = options.seed * 7 + c;  // every camera sees another wall
+    room.person = [this, c](int /*t*/, const CameraModel& /*camera*/, PersonLayer& layer) {
+      layer = layers_[c];
+    };
+    rooms_.push_back(std::make_unique<SilhouetteTestScene>(room));
+  }
+}
+
+HumanScene::~HumanScene() = default;
+
+void HumanScene::renderLayers(const Eigen::VectorXd& q) {
+  if (subject_renderer_) {
+    subject_renderer_->renderLayers(q, layers_);
+    return;
+  }
+  // The model's cones in one flat colour: the lab's body, extracted.
+  std::vector<cv::Mat> masks;
+  model_renderer_->renderSilhouettes(q, masks);
+  layers_.resize(masks.size());
+  for (std::size_t c = 0; c < masks.size(); ++c) {
+    layers_[c].mask = masks[c].clone();
+    layers_[c].colour = cv::Mat(masks[c].size(), CV_8UC3, cv::Scalar(0, 0, 0));
+    layers_[c].colour.setTo(cv::Scalar(60, 85, 170), masks[c]);
+    layers_[c].depth = cv::Mat();
+    layers_[c].chest.reset();
+  }
+}
+
+void HumanScene::learnBackground() {
+  if (!options_.extracted) return;
+  extractors_.clear();
+  for (auto& room : rooms_) {
+    BackgroundLearner learner;
+    for (int t = 0; t < kBackgroundFrames; ++t) {
+      room->render(time_ + t, false, frame_);
+      learner.add(frame_.image);
+    }
+    extractors_.push_back(std::make_unique<SilhouetteExtractor>(learner.model()));
+  }
+  time_ += kBackgroundFrames;
+}
+
+void HumanScene::renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::Mat>& images) {
+  if (!options_.extracted) {
+    if (subject_renderer_)
+      subject_renderer_->renderSilhouettes(q, images);
+    else
+      model_renderer_->renderSilhouettes(q, images);
+    return;
+  }
+  if (extractors_.empty()) throw std::logic_error("HumanScene: no background learned");
+  renderLayers(q);
+  images.resize(rooms_.size());
+  for (std::size_t c = 0; c < rooms_.size(); ++c) {
+    rooms_[c]->render(time_, true, frame_);
+    if (!extractors_[c]->extract(frame_.image))
+      throw std::runtime_error("silhouette extraction: " + extractors_[c]->lastError());
+    extractors_[c]->foreground().copyTo(images[c]);
+  }
+  ++time_;
+}
+
+void HumanScene::hideSegment(int camera, int segment) {
+  if (subject_renderer_)
+    subject_renderer_->hideSegment(camera, segment);
+  else
+    model_renderer_->hideSegment(camera, segment);
+}
+
+void HumanScene::clearHidden() {
+  if (subject_renderer_)
+    subject_renderer_->clearHidden();
+  else
+    model_renderer_->clearHidden();
+}
+
+std::vector<Eigen::Vector3d> HumanScene::truthPoints(const Eigen::VectorXd& q) {
+  if (subject_renderer_) {
+    subject_renderer_->pose(q);
+    return subject_renderer_->truthPoints();
+  }
+  forwardKinematics(model_, kinematics_, q);
+  return pointPositions(model_, kinematics_);
+}
+
+const SubjectParams* HumanScene::subjectParams() const {
+  return params_ ? &*params_ : nullptr;
+}
+
+std::optional<BodyProportions> HumanScene::subjectProportions(const BodyModel& shipped) const {
+  if (!subject_renderer_) return std::nullopt;
+  const BodyProportions subject = proportionsOf(subject_renderer_->subject().rest());
+  const BodyProportions body = proportionsOf(subjectJointsAt(shipped, shipped.neutralPose()));
+  BodyProportions ratio;
+  for (int k = 0; k < BodyProportions::kCount; ++k) ratio[k] = subject[k] / body[k];
+  ratio.girth = params_->girth;
+  return ratio;
+}
+
+}  // namespace mocap
