@@ -132,6 +132,161 @@ class Parser {
   std::string source_;
 };
 
+// The segment's DOFs, appended to the model's and indexed from `seg`.
+void parseSegmentDofs(const Parser& p, const YAML::Node& dofs, const std::string& path, int index,
+                      Segment& seg, BodyModel& model) {
+  if (!dofs.IsSequence()) p.fail(dofs, path + ".dofs", "expected a list");
+  if (dofs.size() > 6) p.fail(dofs, path + ".dofs", "a joint has at most 6 DOFs");
+  for (std::size_t k = 0; k < dofs.size(); ++k) {
+    std::string dpath = path + ".dofs[" + std::to_string(k) + "]";
+    Dof d = p.dof(dofs[k], dpath);
+    if (model.dofIndex(d.name) >= 0) p.fail(dofs[k], dpath + ".name", "duplicate DOF name");
+    d.segment = index;
+    seg.dofs.push_back(static_cast<int>(model.dofs.size()));
+    model.dofs.push_back(d);
+  }
+}
+
+void parseSegmentPoints(const Parser& p, const YAML::Node& pts, const std::string& path, int index,
+                        BodyModel& model) {
+  if (!pts.IsSequence()) p.fail(pts, path + ".points", "expected a list");
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    std::string ppath = path + ".points[" + std::to_string(k) + "]";
+    if (!pts[k].IsMap()) p.fail(pts[k], ppath, "expected a map");
+    p.onlyKeys(pts[k], ppath, {"name", "at"});
+    BodyPoint bp;
+    bp.name = p.text(p.require(pts[k], "name", ppath), ppath + ".name");
+    if (model.pointIndex(bp.name) >= 0) p.fail(pts[k], ppath + ".name", "duplicate point");
+    bp.segment = index;
+    if (pts[k]["at"]) bp.local = p.vec3(pts[k]["at"], ppath + ".at");
+    model.points.push_back(bp);
+  }
+}
+
+// segments[i], appended to the model with its DOFs and points.
+void parseSegment(const Parser& p, const YAML::Node& n, std::size_t i, BodyModel& model) {
+  std::string path = "segments[" + std::to_string(i) + "]";
+  if (!n.IsMap()) p.fail(n, path, "expected a map");
+  Segment seg;
+  seg.name = p.text(p.require(n, "name", path), path + ".name");
+  path = "segments[" + std::to_string(i) + "] (" + seg.name + ")";
+  p.onlyKeys(n, path, {"name", "parent", "offset", "dofs", "shape", "points"});
+  if (model.segmentIndex(seg.name) >= 0) p.fail(n["name"], path + ".name", "duplicate segment");
+  if (n["parent"] && !n["parent"].IsNull()) {
+    std::string parent = p.text(n["parent"], path + ".parent");
+    seg.parent = model.segmentIndex(parent);
+    if (seg.parent < 0) {
+      p.fail(n["parent"], path + ".parent",
+             "unknown segment '" + parent + "' (parents must be listed before their children)");
+    }
+  } else if (!model.segments.empty()) {
+    p.fail(n, path + ".parent", "missing: only the first segment may be the root");
+  }
+  if (n["offset"]) seg.offset = p.vec3(n["offset"], path + ".offset");
+  const int index = static_cast<int>(model.segments.size());
+  if (YAML::Node dofs = n["dofs"]) parseSegmentDofs(p, dofs, path, index, seg, model);
+  if (n["shape"]) seg.shape = p.shape(n["shape"], path + ".shape");
+  if (YAML::Node pts = n["points"]) parseSegmentPoints(p, pts, path, index, model);
+  model.segments.push_back(seg);
+}
+
+// The list of names under `field`, each resolved by `index_of` to one of the model's `kind`s
+// (-1: unknown), none named twice; `rule(index)` gives the field's own objection, or "".
+template <typename IndexOf, typename Rule>
+std::vector<std::string> parseNameList(const Parser& p, const YAML::Node& root, const char* field,
+                                       const std::string& kind, IndexOf index_of, Rule rule) {
+  std::vector<std::string> names;
+  const YAML::Node list = root[field];
+  if (!list) return names;
+  if (!list.IsSequence()) p.fail(list, field, "expected a list of " + kind + " names");
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const std::string path = std::string(field) + "[" + std::to_string(k) + "]";
+    std::string name = p.text(list[k], path);
+    const int index = index_of(name);
+    if (index < 0) p.fail(list[k], path, "unknown " + kind + " '" + name + "'");
+    if (const std::string objection = rule(index); !objection.empty())
+      p.fail(list[k], path, "'" + name + "' " + objection);
+    // Named twice, an entry would count twice (a twist in the facing prior's mean).
+    if (std::find(names.begin(), names.end(), name) != names.end())
+      p.fail(list[k], path, "'" + name + "' is listed twice");
+    names.push_back(name);
+  }
+  return names;
+}
+
+std::vector<std::string> parseDofNames(const Parser& p, const YAML::Node& root, const char* field,
+                                       const BodyModel& model, bool rotations_only) {
+  const auto index_of = [&](const std::string& name) { return model.dofIndex(name); };
+  return parseNameList(p, root, field, "DOF", index_of, [&](int d) {
+    return rotations_only && model.dofs[d].type != DofType::kRotation ? "is not a rotation" : "";
+  });
+}
+
+// The facing prior adds the twists up, each signed by its axis against the first's: mirrored
+// legs twist about opposite axes, and an axis at an angle to the first has no sign.
+void checkFacingTwistAxes(const Parser& p, const YAML::Node& root, const BodyModel& model) {
+  for (std::size_t k = 1; k < model.facing_twists.size(); ++k) {
+    const Eigen::Vector3d& first = model.dofs[model.dofIndex(model.facing_twists[0])].axis;
+    const Eigen::Vector3d& axis = model.dofs[model.dofIndex(model.facing_twists[k])].axis;
+    if (std::abs(std::abs(axis.dot(first)) - 1) > 1e-9)
+      p.fail(root["facing_twists"][k], "facing_twists[" + std::to_string(k) + "]",
+             "'" + model.facing_twists[k] + "' turns about an axis neither along nor against '" +
+                 model.facing_twists[0] + "''s");
+  }
+}
+
+// Planted through the joints of its parent and grandparent (knee and hip).
+std::vector<std::string> parseFeet(const Parser& p, const YAML::Node& root,
+                                   const BodyModel& model) {
+  return parseNameList(
+      p, root, "feet", "segment", [&](const std::string& name) { return model.segmentIndex(name); },
+      [&](int s) {
+        const int parent = model.segments[s].parent;
+        return parent < 0 || model.segments[parent].parent < 0
+                   ? "needs a parent and a grandparent segment"
+                   : "";
+      });
+}
+
+// A stance's DOF values (every key but `name`), in the file's units, within the DOFs' limits.
+void parseStanceDofs(const Parser& p, const YAML::Node& node, const std::string& path,
+                     const BodyModel& model, Stance& stance) {
+  for (const auto& entry : node) {
+    const std::string key = entry.first.Scalar();
+    if (key == "name") continue;
+    const int d = model.dofIndex(key);
+    if (d < 0) p.fail(entry.first, path + "." + key, "unknown DOF");
+    const Dof& dof = model.dofs[d];
+    const double unit = dof.type == DofType::kRotation ? kDegToRad : 1.0;
+    const double value = p.number(entry.second, path + "." + key) * unit;
+    if (value < dof.min - 1e-12 || value > dof.max + 1e-12)
+      p.fail(entry.second, path + "." + key, "outside the DOF's limits");
+    stance.dofs.emplace_back(d, value);
+  }
+}
+
+void parseStances(const Parser& p, const YAML::Node& root, BodyModel& model) {
+  if (const YAML::Node list = root["stances"]) {
+    if (!list.IsSequence()) p.fail(list, "stances", "expected a list of stances");
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      const std::string path = "stances[" + std::to_string(k) + "]";
+      const YAML::Node node = list[k];
+      if (!node.IsMap()) p.fail(node, path, "expected a map: name and DOF values");
+      Stance stance;
+      stance.name = p.text(p.require(node, "name", path), path + ".name");
+      parseStanceDofs(p, node, path, model, stance);
+      model.stances.push_back(std::move(stance));
+    }
+  }
+  if (const YAML::Node node = root["fit_pose"]) {
+    if (!node.IsMap()) p.fail(node, "fit_pose", "expected a map of DOF values");
+    Stance pose;
+    pose.name = "fit_pose";
+    parseStanceDofs(p, node, "fit_pose", model, pose);
+    model.fit_pose = std::move(pose);
+  }
+}
+
 }  // namespace
 
 BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source) {
@@ -158,139 +313,12 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   if (root["frame_rate"]) model.frame_rate = p.positive(root["frame_rate"], "frame_rate");
   YAML::Node segs = p.require(root, "segments", "(top)");
   if (!segs.IsSequence() || segs.size() == 0) p.fail(segs, "segments", "expected a non-empty list");
-
-  for (std::size_t i = 0; i < segs.size(); ++i) {
-    const YAML::Node& n = segs[i];
-    std::string path = "segments[" + std::to_string(i) + "]";
-    if (!n.IsMap()) p.fail(n, path, "expected a map");
-    Segment seg;
-    seg.name = p.text(p.require(n, "name", path), path + ".name");
-    path = "segments[" + std::to_string(i) + "] (" + seg.name + ")";
-    p.onlyKeys(n, path, {"name", "parent", "offset", "dofs", "shape", "points"});
-    if (model.segmentIndex(seg.name) >= 0) p.fail(n["name"], path + ".name", "duplicate segment");
-    if (n["parent"] && !n["parent"].IsNull()) {
-      std::string parent = p.text(n["parent"], path + ".parent");
-      seg.parent = model.segmentIndex(parent);
-      if (seg.parent < 0) {
-        p.fail(n["parent"], path + ".parent",
-               "unknown segment '" + parent + "' (parents must be listed before their children)");
-      }
-    } else if (!model.segments.empty()) {
-      p.fail(n, path + ".parent", "missing: only the first segment may be the root");
-    }
-    if (n["offset"]) seg.offset = p.vec3(n["offset"], path + ".offset");
-    const int index = static_cast<int>(model.segments.size());
-    if (YAML::Node dofs = n["dofs"]) {
-      if (!dofs.IsSequence()) p.fail(dofs, path + ".dofs", "expected a list");
-      if (dofs.size() > 6) p.fail(dofs, path + ".dofs", "a joint has at most 6 DOFs");
-      for (std::size_t k = 0; k < dofs.size(); ++k) {
-        std::string dpath = path + ".dofs[" + std::to_string(k) + "]";
-        Dof d = p.dof(dofs[k], dpath);
-        if (model.dofIndex(d.name) >= 0) p.fail(dofs[k], dpath + ".name", "duplicate DOF name");
-        d.segment = index;
-        seg.dofs.push_back(static_cast<int>(model.dofs.size()));
-        model.dofs.push_back(d);
-      }
-    }
-    if (n["shape"]) seg.shape = p.shape(n["shape"], path + ".shape");
-    if (YAML::Node pts = n["points"]) {
-      if (!pts.IsSequence()) p.fail(pts, path + ".points", "expected a list");
-      for (std::size_t k = 0; k < pts.size(); ++k) {
-        std::string ppath = path + ".points[" + std::to_string(k) + "]";
-        if (!pts[k].IsMap()) p.fail(pts[k], ppath, "expected a map");
-        p.onlyKeys(pts[k], ppath, {"name", "at"});
-        BodyPoint bp;
-        bp.name = p.text(p.require(pts[k], "name", ppath), ppath + ".name");
-        if (model.pointIndex(bp.name) >= 0) p.fail(pts[k], ppath + ".name", "duplicate point");
-        bp.segment = index;
-        if (pts[k]["at"]) bp.local = p.vec3(pts[k]["at"], ppath + ".at");
-        model.points.push_back(bp);
-      }
-    }
-    model.segments.push_back(seg);
-  }
-  // The list of names under `field`, each resolved by `index_of` to one of the model's `kind`s
-  // (-1: unknown), none named twice; `rule(index)` gives the field's own objection, or "".
-  const auto nameList = [&](const char* field, const std::string& kind, auto index_of, auto rule) {
-    std::vector<std::string> names;
-    const YAML::Node list = root[field];
-    if (!list) return names;
-    if (!list.IsSequence()) p.fail(list, field, "expected a list of " + kind + " names");
-    for (std::size_t k = 0; k < list.size(); ++k) {
-      const std::string path = std::string(field) + "[" + std::to_string(k) + "]";
-      std::string name = p.text(list[k], path);
-      const int index = index_of(name);
-      if (index < 0) p.fail(list[k], path, "unknown " + kind + " '" + name + "'");
-      if (const std::string objection = rule(index); !objection.empty())
-        p.fail(list[k], path, "'" + name + "' " + objection);
-      // Named twice, an entry would count twice (a twist in the facing prior's mean).
-      if (std::find(names.begin(), names.end(), name) != names.end())
-        p.fail(list[k], path, "'" + name + "' is listed twice");
-      names.push_back(name);
-    }
-    return names;
-  };
-  const auto dofNames = [&](const char* field, bool rotations_only) {
-    const auto index_of = [&](const std::string& name) { return model.dofIndex(name); };
-    return nameList(field, "DOF", index_of, [&](int d) {
-      return rotations_only && model.dofs[d].type != DofType::kRotation ? "is not a rotation" : "";
-    });
-  };
-  model.gait_dofs = dofNames("gait_dofs", false);
-  model.facing_twists = dofNames("facing_twists", true);
-  // The facing prior adds the twists up, each signed by its axis against the first's: mirrored
-  // legs twist about opposite axes, and an axis at an angle to the first has no sign.
-  for (std::size_t k = 1; k < model.facing_twists.size(); ++k) {
-    const Eigen::Vector3d& first = model.dofs[model.dofIndex(model.facing_twists[0])].axis;
-    const Eigen::Vector3d& axis = model.dofs[model.dofIndex(model.facing_twists[k])].axis;
-    if (std::abs(std::abs(axis.dot(first)) - 1) > 1e-9)
-      p.fail(root["facing_twists"][k], "facing_twists[" + std::to_string(k) + "]",
-             "'" + model.facing_twists[k] + "' turns about an axis neither along nor against '" +
-                 model.facing_twists[0] + "''s");
-  }
-  // Planted through the joints of its parent and grandparent (knee and hip).
-  model.feet = nameList(
-      "feet", "segment", [&](const std::string& name) { return model.segmentIndex(name); },
-      [&](int s) {
-        const int parent = model.segments[s].parent;
-        return parent < 0 || model.segments[parent].parent < 0
-                   ? "needs a parent and a grandparent segment"
-                   : "";
-      });
-  // A stance's DOF values (every key but `name`), in the file's units, within the DOFs' limits.
-  auto stanceDofs = [&](const YAML::Node& node, const std::string& path, Stance& stance) {
-    for (const auto& entry : node) {
-      const std::string key = entry.first.Scalar();
-      if (key == "name") continue;
-      const int d = model.dofIndex(key);
-      if (d < 0) p.fail(entry.first, path + "." + key, "unknown DOF");
-      const Dof& dof = model.dofs[d];
-      const double unit = dof.type == DofType::kRotation ? kDegToRad : 1.0;
-      const double value = p.number(entry.second, path + "." + key) * unit;
-      if (value < dof.min - 1e-12 || value > dof.max + 1e-12)
-        p.fail(entry.second, path + "." + key, "outside the DOF's limits");
-      stance.dofs.emplace_back(d, value);
-    }
-  };
-  if (const YAML::Node list = root["stances"]) {
-    if (!list.IsSequence()) p.fail(list, "stances", "expected a list of stances");
-    for (std::size_t k = 0; k < list.size(); ++k) {
-      const std::string path = "stances[" + std::to_string(k) + "]";
-      const YAML::Node node = list[k];
-      if (!node.IsMap()) p.fail(node, path, "expected a map: name and DOF values");
-      Stance stance;
-      stance.name = p.text(p.require(node, "name", path), path + ".name");
-      stanceDofs(node, path, stance);
-      model.stances.push_back(std::move(stance));
-    }
-  }
-  if (const YAML::Node node = root["fit_pose"]) {
-    if (!node.IsMap()) p.fail(node, "fit_pose", "expected a map of DOF values");
-    Stance pose;
-    pose.name = "fit_pose";
-    stanceDofs(node, "fit_pose", pose);
-    model.fit_pose = std::move(pose);
-  }
+  for (std::size_t i = 0; i < segs.size(); ++i) parseSegment(p, segs[i], i, model);
+  model.gait_dofs = parseDofNames(p, root, "gait_dofs", model, false);
+  model.facing_twists = parseDofNames(p, root, "facing_twists", model, true);
+  checkFacingTwistAxes(p, root, model);
+  model.feet = parseFeet(p, root, model);
+  parseStances(p, root, model);
   return model;
 }
 
