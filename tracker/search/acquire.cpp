@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include <Eigen/Eigenvalues>
@@ -74,6 +75,121 @@ double wrapInto(double angle, const Dof& dof) {
   return std::clamp(angle, dof.min, dof.max);
 }
 
+void checkAcquireArguments(const BodyModel& model, const Rig& rig,
+                           const std::vector<SilhouetteMask>& masks,
+                           const std::vector<Eigen::VectorXd>& stances,
+                           const AcquireOptions& options) {
+  if (!canAcquire(model)) throw std::invalid_argument("acquisition: " + whyCannotAcquire(model));
+  if (masks.size() != rig.size())
+    throw std::invalid_argument("acquisition: expected one silhouette per camera");
+  if (stances.empty()) throw std::invalid_argument("acquisition: no stance to try");
+  for (const Eigen::VectorXd& stance : stances)
+    if (stance.size() != static_cast<long>(model.dofs.size()))
+      throw std::invalid_argument("acquisition: a stance has the wrong number of DOFs");
+  if (options.headings < 1 || options.searched_headings < 1 || options.search_evaluations < 0)
+    throw std::invalid_argument("acquisition: headings and searched headings must be >= 1");
+}
+
+// The point nearest every silhouette's centroid ray. Nothing, and the reason in `why`, when fewer
+// than two cameras see the subject or their rays are too nearly parallel to meet.
+std::optional<Eigen::Vector3d> triangulateSilhouettes(const Rig& rig,
+                                                      const std::vector<SilhouetteMask>& masks,
+                                                      long min_silhouette_pixels,
+                                                      std::string& why) {
+  // Least squares: sum (I - d d^T)(P - C) = 0.
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  int seeing = 0;
+  std::string seen;
+  for (std::size_t c = 0; c < rig.size(); ++c) {
+    if (masks[c].width() != rig[c].width || masks[c].height() != rig[c].height)
+      throw std::invalid_argument("acquisition: camera " + std::to_string(c) +
+                                  "'s silhouette differs in size from the camera");
+    const cv::Moments m = cv::moments(masks[c].toMat(), true);
+    seen += (c ? ", " : "") + std::to_string(static_cast<long>(m.m00));
+    if (m.m00 < static_cast<double>(min_silhouette_pixels)) continue;
+    const Eigen::Vector3d d = rig[c].backProject(Eigen::Vector2d(m.m10 / m.m00, m.m01 / m.m00));
+    const Eigen::Matrix3d away = Eigen::Matrix3d::Identity() - d * d.transpose();
+    normal += away;
+    rhs += away * rig[c].center();
+    ++seeing;
+  }
+  if (seeing < 2) {
+    why = "no subject: " + std::to_string(seeing) + " camera(s) see at least " +
+          std::to_string(min_silhouette_pixels) +
+          " silhouette pixels, two are needed (pixels per camera: " + seen + ")";
+    return std::nullopt;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(normal);
+  if (eigen.eigenvalues()(0) < 1e-3) {
+    why =
+        "the cameras that see the subject look along nearly the same line; its distance cannot "
+        "be told";
+    return std::nullopt;
+  }
+  return Eigen::Vector3d(normal.ldlt().solve(rhs));
+}
+
+struct Start {
+  Eigen::VectorXd q;
+  double value;
+};
+
+// The best `count` starts whose headings lie at least 60 degrees apart: a standing body's
+// silhouettes are nearly the same facing either way, so the one turned round is kept to be told
+// apart by its limbs.
+std::vector<Start> headingsApart(std::vector<Start> scanned, int count, int yaw) {
+  std::stable_sort(scanned.begin(), scanned.end(),
+                   [](const Start& a, const Start& b) { return a.value > b.value; });
+  std::vector<Start> starts;
+  for (Start& candidate : scanned) {
+    if (static_cast<int>(starts.size()) == count) break;
+    const bool apart = std::all_of(starts.begin(), starts.end(), [&](const Start& taken) {
+      return std::abs(std::remainder(candidate.q[yaw] - taken.q[yaw], 2 * M_PI)) >= M_PI / 3 - 1e-9;
+    });
+    if (apart) starts.push_back(std::move(candidate));
+  }
+  return starts;
+}
+
+// Searches that ended facing the same way (within 45 degrees) found one hypothesis: the best of
+// them stands for it. Best first.
+std::vector<Acquisition> distinctHypotheses(std::vector<Acquisition> found, int yaw,
+                                            int evaluations) {
+  std::stable_sort(found.begin(), found.end(), [](const Acquisition& a, const Acquisition& b) {
+    return a.log_likelihood > b.log_likelihood;
+  });
+  std::vector<Acquisition> distinct;
+  for (Acquisition& a : found) {
+    const bool apart = std::all_of(distinct.begin(), distinct.end(), [&](const Acquisition& kept) {
+      return std::abs(std::remainder(a.q[yaw] - kept.q[yaw], 2 * M_PI)) >= M_PI / 4;
+    });
+    if (!apart) continue;
+    a.evaluations = evaluations;
+    distinct.push_back(std::move(a));
+  }
+  return distinct;
+}
+
+SearchDofs rootPlacementSearch(const RootDofs& root, int headings) {
+  SearchDofs search;
+  search.add(root.x, 0.1, 0.005);
+  search.add(root.y, 0.1, 0.005);
+  search.add(root.yaw, M_PI / headings / 2, M_PI / 360);
+  if (root.z >= 0) search.add(root.z, 0.05, 0.005);
+  return search;
+}
+
+SearchDofs everyFreeDofSearch(const BodyModel& model) {
+  SearchDofs search;
+  for (std::size_t d = 0; d < model.dofs.size(); ++d) {
+    if (!model.dofs[d].isFree()) continue;
+    const bool metres = model.dofs[d].type == DofType::kTranslation;
+    search.add(static_cast<int>(d), metres ? 0.05 : M_PI / 12, metres ? 0.005 : M_PI / 180);
+  }
+  return search;
+}
+
 }  // namespace
 
 bool canAcquire(const BodyModel& model) {
@@ -87,52 +203,20 @@ std::string whyCannotAcquire(const BodyModel& model) {
 }
 
 std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
-                                          const std::vector<SilhouetteMask>& masks,
-                                          const std::vector<Eigen::VectorXd>& stances,
-                                          const LikelihoodParams& likelihood,
-                                          const AcquireOptions& options, std::string* why_not) {
-  if (!canAcquire(model)) throw std::invalid_argument("acquisition: " + whyCannotAcquire(model));
+                                        const std::vector<SilhouetteMask>& masks,
+                                        const std::vector<Eigen::VectorXd>& stances,
+                                        const LikelihoodParams& likelihood,
+                                        const AcquireOptions& options, std::string* why_not) {
+  checkAcquireArguments(model, rig, masks, stances, options);
   const RootDofs root = findRootDofs(model);
-  if (masks.size() != rig.size())
-    throw std::invalid_argument("acquisition: expected one silhouette per camera");
-  if (stances.empty()) throw std::invalid_argument("acquisition: no stance to try");
-  for (const Eigen::VectorXd& stance : stances)
-    if (stance.size() != static_cast<long>(model.dofs.size()))
-      throw std::invalid_argument("acquisition: a stance has the wrong number of DOFs");
-  if (options.headings < 1 || options.searched_headings < 1 || options.search_evaluations < 0)
-    throw std::invalid_argument("acquisition: headings and searched headings must be >= 1");
-  auto fail = [&](const std::string& why) {
+  std::string why;
+  const std::optional<Eigen::Vector3d> triangulated =
+      triangulateSilhouettes(rig, masks, options.min_silhouette_pixels, why);
+  if (!triangulated) {
     if (why_not) *why_not = why;
-    return std::vector<Acquisition>();
-  };
-
-  // Least squares: the point nearest every centroid ray, sum (I - d d^T)(P - C) = 0.
-  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
-  int seeing = 0;
-  std::string seen;
-  for (std::size_t c = 0; c < rig.size(); ++c) {
-    if (masks[c].width() != rig[c].width || masks[c].height() != rig[c].height)
-      throw std::invalid_argument("acquisition: camera " + std::to_string(c) +
-                                  "'s silhouette differs in size from the camera");
-    const cv::Moments m = cv::moments(masks[c].toMat(), true);
-    seen += (c ? ", " : "") + std::to_string(static_cast<long>(m.m00));
-    if (m.m00 < static_cast<double>(options.min_silhouette_pixels)) continue;
-    const Eigen::Vector3d d = rig[c].backProject(Eigen::Vector2d(m.m10 / m.m00, m.m01 / m.m00));
-    const Eigen::Matrix3d away = Eigen::Matrix3d::Identity() - d * d.transpose();
-    normal += away;
-    rhs += away * rig[c].center();
-    ++seeing;
+    return {};
   }
-  if (seeing < 2)
-    return fail("no subject: " + std::to_string(seeing) + " camera(s) see at least " +
-                std::to_string(options.min_silhouette_pixels) +
-                " silhouette pixels, two are needed (pixels per camera: " + seen + ")");
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(normal);
-  if (eigen.eigenvalues()(0) < 1e-3)
-    return fail("the cameras that see the subject look along nearly the same line; its distance "
-                "cannot be told");
-  const Eigen::Vector3d centre = normal.ldlt().solve(rhs);
+  const Eigen::Vector3d centre = *triangulated;
 
   FullBodyEvaluator evaluator(model, rig, likelihood.points_per_circle, 1);
   KinematicsData kinematics(model);
@@ -154,10 +238,6 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
     return q;
   };
 
-  struct Start {
-    Eigen::VectorXd q;
-    double value;
-  };
   std::vector<Start> scanned;
   for (int h = 0; h < options.headings; ++h) {
     Start best{{}, -INFINITY};
@@ -168,54 +248,20 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
     }
     scanned.push_back(std::move(best));
   }
-  std::stable_sort(scanned.begin(), scanned.end(),
-                   [](const Start& a, const Start& b) { return a.value > b.value; });
-  // The best headings at least 60 degrees apart: a standing body's silhouettes are nearly the same
-  // facing either way, so the one turned round is kept to be told apart by its limbs.
-  std::vector<Start> starts;
-  for (Start& candidate : scanned) {
-    if (static_cast<int>(starts.size()) == options.searched_headings) break;
-    const bool apart = std::all_of(starts.begin(), starts.end(), [&](const Start& taken) {
-      return std::abs(std::remainder(candidate.q[root.yaw] - taken.q[root.yaw], 2 * M_PI)) >=
-             M_PI / 3 - 1e-9;
-    });
-    if (apart) starts.push_back(std::move(candidate));
-  }
+  std::vector<Start> starts =
+      headingsApart(std::move(scanned), options.searched_headings, root.yaw);
 
   // First the root's place and heading, then every free DOF: the limbs, fitted, tell the heading
   // the stance alone could not (a knee bends one way only).
-  SearchDofs root_search;
-  root_search.add(root.x, 0.1, 0.005);
-  root_search.add(root.y, 0.1, 0.005);
-  root_search.add(root.yaw, M_PI / options.headings / 2, M_PI / 360);
-  if (root.z >= 0) root_search.add(root.z, 0.05, 0.005);
-  SearchDofs all_search;
-  for (std::size_t d = 0; d < model.dofs.size(); ++d) {
-    if (!model.dofs[d].isFree()) continue;
-    const bool metres = model.dofs[d].type == DofType::kTranslation;
-    all_search.add(static_cast<int>(d), metres ? 0.05 : M_PI / 12, metres ? 0.005 : M_PI / 180);
-  }
+  const SearchDofs root_search = rootPlacementSearch(root, options.headings);
+  const SearchDofs all_search = everyFreeDofSearch(model);
   std::vector<Acquisition> found;
   for (Start& start : starts) {
     coordinateSearch(model, score, root_search, options.search_evaluations, start.q, start.value);
     coordinateSearch(model, score, all_search, options.fit_evaluations, start.q, start.value);
     found.push_back({std::move(start.q), start.value, centre, 0});
   }
-  std::stable_sort(found.begin(), found.end(), [](const Acquisition& a, const Acquisition& b) {
-    return a.log_likelihood > b.log_likelihood;
-  });
-  // Searches that ended facing the same way (within 45 degrees) found one hypothesis: the best
-  // of them stands for it.
-  std::vector<Acquisition> distinct;
-  for (Acquisition& a : found) {
-    const bool apart = std::all_of(distinct.begin(), distinct.end(), [&](const Acquisition& kept) {
-      return std::abs(std::remainder(a.q[root.yaw] - kept.q[root.yaw], 2 * M_PI)) >= M_PI / 4;
-    });
-    if (!apart) continue;
-    a.evaluations = evaluations;
-    distinct.push_back(std::move(a));
-  }
-  return distinct;
+  return distinctHypotheses(std::move(found), root.yaw, evaluations);
 }
 
 double silhouetteFit(const PixelCounts& counts, const std::vector<SilhouetteMask>& masks) {
