@@ -1,44 +1,31 @@
-// The emulated kernel side of V4L2: node and buffer-queue state machines behind the syscall seam.
+// The emulated kernel side of V4L2: devices plugged in and out, frames emitted by the test, open,
+// close and ioctl dispatch. Format negotiation and the buffer queue have files of their own.
 #include "tests/drivers/v4l2/emulated_v4l2_device.h"
 
 #include <fcntl.h>
-#include <sys/mman.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "drivers/v4l2/v4l2_device.h"
+#include "tests/drivers/v4l2/emulated_v4l2_internal.h"
 
 namespace mocap {
 namespace {
 
-constexpr uint32_t kCaptureType = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-// Buffer i is mapped at offset i << kOffsetShift: unique, page aligned, larger than any buffer.
-constexpr int kOffsetShift = 24;
-
-enum class BufferState { kDequeued, kQueued, kDone };
-
-v4l2_fract intervalOf(double fps) {
-  if (std::abs(fps - std::round(fps)) < 1e-9) return {1, static_cast<uint32_t>(std::lround(fps))};
-  return {1000, static_cast<uint32_t>(std::lround(fps * 1000))};
-}
-
-uint32_t bytesPerPixel(uint32_t pixelformat) {
-  switch (pixelformat) {
-    case V4L2_PIX_FMT_YUYV:
-      return 2;
-    case V4L2_PIX_FMT_GREY:
-      return 1;
-    default:
-      return 0;  // compressed
-  }
-}
+using v4l2_emulation::adjustedFormat;
+using v4l2_emulation::BufferState;
+using v4l2_emulation::EmulatedBuffer;
+using v4l2_emulation::findFormat;
+using v4l2_emulation::findSize;
+using v4l2_emulation::intervalOf;
+using v4l2_emulation::kCaptureType;
+using v4l2_emulation::ratesOf;
 
 template <size_t N>
 void copyText(__u8 (&field)[N], const std::string& text) {
@@ -102,104 +89,6 @@ std::vector<uint8_t> corruptJpegPayload() {
   payload.push_back(0xFF);
   payload.push_back(0xD9);
   return payload;
-}
-
-struct EmulatedBuffer {
-  std::shared_ptr<std::vector<uint8_t>> memory;
-  BufferState state = BufferState::kDequeued;
-  uint32_t mapped = 0;
-  uint32_t bytesused = 0;
-  uint32_t sequence = 0;
-  uint32_t flags = 0;
-  timeval timestamp{};
-};
-
-}  // namespace
-
-// One plug-in of a device: what an open file talks to. A vanished instance stays dead.
-struct EmulatedV4l2::Instance {
-  EmulatedDeviceSpec spec;
-  bool alive = true;
-  v4l2_pix_format format{};
-  double fps = 0;
-  int owner_fd = -1;  // the file that allocated the buffers, as vb2 ties a queue to its owner
-  std::vector<EmulatedBuffer> buffers;
-  std::deque<uint32_t> queued;
-  std::deque<uint32_t> done;
-  bool streaming = false;
-  uint32_t sequence = 0;
-  int64_t clock_ns = 1'000'000'000'000;  // the producer clock: 1000 s after boot
-};
-
-struct EmulatedV4l2::Node {
-  EmulatedDeviceSpec spec;
-  std::shared_ptr<Instance> instance;  // null while unplugged
-  std::vector<std::string> calls;
-};
-
-struct EmulatedV4l2::OpenFile {
-  std::string path;
-  std::shared_ptr<Instance> device;
-  bool nonblocking = false;
-};
-
-struct EmulatedV4l2::Mapping {
-  std::string path;
-  std::shared_ptr<std::vector<uint8_t>> memory;  // outlives REQBUFS(0), close and unplug
-  std::weak_ptr<Instance> device;
-  uint32_t index = 0;
-  uint32_t count = 0;
-};
-
-namespace {
-
-const EmulatedFormat* findFormat(const EmulatedDeviceSpec& spec, uint32_t pixelformat) {
-  for (const EmulatedFormat& format : spec.formats) {
-    if (format.pixelformat == pixelformat) return &format;
-  }
-  return nullptr;
-}
-
-const EmulatedFrameSize* findSize(const EmulatedFormat& format, uint32_t width, uint32_t height) {
-  for (const EmulatedFrameSize& size : format.sizes) {
-    if (size.width == width && size.height == height) return &size;
-  }
-  return nullptr;
-}
-
-// The kernel's adjust-not-fail rule: the nearest listed size of a supported format.
-v4l2_pix_format adjustedFormat(const EmulatedDeviceSpec& spec, const v4l2_pix_format& requested) {
-  const EmulatedFormat* format = findFormat(spec, requested.pixelformat);
-  if (format == nullptr) format = &spec.formats.front();
-  const EmulatedFrameSize* nearest = &format->sizes.front();
-  for (const EmulatedFrameSize& size : format->sizes) {
-    const auto distance = [&](const EmulatedFrameSize& s) {
-      return std::abs(static_cast<int64_t>(s.width) - requested.width) +
-             std::abs(static_cast<int64_t>(s.height) - requested.height);
-    };
-    if (distance(size) < distance(*nearest)) nearest = &size;
-  }
-  v4l2_pix_format adjusted{};
-  adjusted.pixelformat = format->pixelformat;
-  adjusted.width = nearest->width;
-  adjusted.height = nearest->height;
-  adjusted.field = V4L2_FIELD_NONE;
-  adjusted.colorspace = V4L2_COLORSPACE_SRGB;
-  const uint32_t bpp = bytesPerPixel(format->pixelformat);
-  if (bpp > 0) {
-    adjusted.bytesperline = adjusted.width * bpp + spec.row_padding;
-    adjusted.sizeimage = adjusted.bytesperline * adjusted.height;
-  } else {
-    // As UVC does for MJPEG: no line pitch, and a worst-case frame size (headers included).
-    adjusted.sizeimage = std::max<uint32_t>(adjusted.width * adjusted.height * 2, 64 * 1024);
-  }
-  return adjusted;
-}
-
-std::vector<double> ratesOf(const EmulatedDeviceSpec& spec, const v4l2_pix_format& format) {
-  const EmulatedFormat* listed = findFormat(spec, format.pixelformat);
-  const EmulatedFrameSize* size = listed ? findSize(*listed, format.width, format.height) : nullptr;
-  return size ? size->fps : std::vector<double>{};
 }
 
 }  // namespace
@@ -498,246 +387,6 @@ int EmulatedV4l2::dispatch(std::unique_lock<std::mutex>& lock, int fd, OpenFile&
       return 0;
     default:
       return ENOTTY;
-  }
-}
-
-int EmulatedV4l2::setFormat(Instance& device, v4l2_format& format, bool apply) {
-  if (format.type != kCaptureType) return EINVAL;
-  const v4l2_pix_format adjusted = adjustedFormat(device.spec, format.fmt.pix);
-  if (apply) {
-    // vb2_is_busy: the format fixes the buffer size, so it cannot change under allocated buffers.
-    if (!device.buffers.empty()) return violation("VIDIOC_S_FMT with buffers allocated", EBUSY);
-    device.format = adjusted;
-    const std::vector<double> rates = ratesOf(device.spec, adjusted);
-    if (std::find(rates.begin(), rates.end(), device.fps) == rates.end()) {
-      device.fps = rates.empty() ? 0 : rates.front();
-    }
-  }
-  format.fmt.pix = adjusted;
-  return 0;
-}
-
-int EmulatedV4l2::setParm(Instance& device, v4l2_streamparm& parm) {
-  if (parm.type != kCaptureType) return EINVAL;
-  const v4l2_fract requested = parm.parm.capture.timeperframe;
-  const std::vector<double> rates = ratesOf(device.spec, device.format);
-  if (requested.numerator != 0 && requested.denominator != 0 && !rates.empty()) {
-    const double wanted = static_cast<double>(requested.denominator) / requested.numerator;
-    device.fps = *std::min_element(rates.begin(), rates.end(), [&](double a, double b) {
-      return std::abs(a - wanted) < std::abs(b - wanted);
-    });
-  }
-  parm.parm.capture = {};
-  parm.parm.capture.capability = V4L2_CAP_TIMEPERFRAME;
-  parm.parm.capture.timeperframe = intervalOf(device.fps);
-  return 0;
-}
-
-int EmulatedV4l2::requestBuffers(Instance& device, int fd, v4l2_requestbuffers& request) {
-  if (request.type != kCaptureType || request.memory != V4L2_MEMORY_MMAP) {
-    return violation("VIDIOC_REQBUFS with an unsupported type or memory", EINVAL);
-  }
-  if (device.owner_fd >= 0 && device.owner_fd != fd) {
-    return violation("VIDIOC_REQBUFS on a queue another file owns", EBUSY);
-  }
-  if (device.streaming) return violation("VIDIOC_REQBUFS while streaming", EBUSY);
-  for (const EmulatedBuffer& buffer : device.buffers) {
-    if (buffer.mapped > 0) return violation("VIDIOC_REQBUFS while buffers are mapped", EBUSY);
-  }
-  device.buffers.clear();
-  device.queued.clear();
-  device.done.clear();
-  request.capabilities = V4L2_BUF_CAP_SUPPORTS_MMAP;
-  if (request.count == 0) {
-    device.owner_fd = -1;
-    return 0;
-  }
-  request.count = std::clamp(request.count, device.spec.min_buffers, device.spec.max_buffers);
-  device.buffers.resize(request.count);
-  for (EmulatedBuffer& buffer : device.buffers) {
-    buffer.memory = std::make_shared<std::vector<uint8_t>>(device.format.sizeimage);
-  }
-  device.owner_fd = fd;
-  return 0;
-}
-
-int EmulatedV4l2::queryBuffer(Instance& device, v4l2_buffer& buffer) {
-  if (buffer.type != kCaptureType || buffer.memory != V4L2_MEMORY_MMAP) {
-    return violation("VIDIOC_QUERYBUF with an unsupported type or memory", EINVAL);
-  }
-  if (buffer.index >= device.buffers.size()) {
-    return violation("VIDIOC_QUERYBUF of buffer " + std::to_string(buffer.index), EINVAL);
-  }
-  const EmulatedBuffer& state = device.buffers[buffer.index];
-  buffer.length = static_cast<uint32_t>(state.memory->size());
-  buffer.m.offset = buffer.index << kOffsetShift;
-  buffer.bytesused = state.bytesused;
-  buffer.sequence = state.sequence;
-  buffer.timestamp = state.timestamp;
-  buffer.flags = device.spec.timestamp_flags | (state.mapped ? V4L2_BUF_FLAG_MAPPED : 0) |
-                 (state.state == BufferState::kQueued ? V4L2_BUF_FLAG_QUEUED : 0) |
-                 (state.state == BufferState::kDone ? V4L2_BUF_FLAG_DONE : 0);
-  return 0;
-}
-
-int EmulatedV4l2::queueBuffer(Instance& device, int fd, v4l2_buffer& buffer) {
-  if (device.owner_fd != fd) return violation("VIDIOC_QBUF by a file that owns no buffers", EBUSY);
-  if (buffer.type != kCaptureType || buffer.memory != V4L2_MEMORY_MMAP) {
-    return violation("VIDIOC_QBUF with an unsupported type or memory", EINVAL);
-  }
-  if (buffer.index >= device.buffers.size()) {
-    return violation("VIDIOC_QBUF of buffer " + std::to_string(buffer.index), EINVAL);
-  }
-  EmulatedBuffer& state = device.buffers[buffer.index];
-  if (state.state != BufferState::kDequeued) {
-    return violation(
-        "VIDIOC_QBUF of buffer " + std::to_string(buffer.index) + ", which is already queued",
-        EINVAL);
-  }
-  state.state = BufferState::kQueued;
-  device.queued.push_back(buffer.index);
-  buffer.flags = device.spec.timestamp_flags | V4L2_BUF_FLAG_QUEUED |
-                 (state.mapped ? V4L2_BUF_FLAG_MAPPED : 0);
-  changed_.notify_all();
-  return 0;
-}
-
-int EmulatedV4l2::dequeueBuffer(std::unique_lock<std::mutex>& lock,
-                                std::shared_ptr<Instance> device, int fd, OpenFile& file,
-                                v4l2_buffer& buffer) {
-  if (device->owner_fd != fd)
-    return violation("VIDIOC_DQBUF by a file that owns no buffers", EBUSY);
-  if (buffer.type != kCaptureType || buffer.memory != V4L2_MEMORY_MMAP) {
-    return violation("VIDIOC_DQBUF with an unsupported type or memory", EINVAL);
-  }
-  const bool nonblocking = file.nonblocking;
-  for (;;) {
-    if (!device->alive) return ENODEV;
-    if (files_.count(fd) == 0) return EBADF;
-    if (!device->streaming) return violation("VIDIOC_DQBUF while not streaming", EINVAL);
-    if (!device->done.empty()) break;
-    if (nonblocking) return EAGAIN;
-    changed_.wait(lock);
-  }
-  const uint32_t index = device->done.front();
-  device->done.pop_front();
-  EmulatedBuffer& state = device->buffers[index];
-  state.state = BufferState::kDequeued;
-  buffer.index = index;
-  buffer.bytesused = state.bytesused;
-  buffer.length = static_cast<uint32_t>(state.memory->size());
-  buffer.m.offset = index << kOffsetShift;
-  buffer.sequence = state.sequence;
-  buffer.flags = state.flags | (state.mapped ? V4L2_BUF_FLAG_MAPPED : 0);
-  buffer.timestamp = state.timestamp;
-  buffer.field = V4L2_FIELD_NONE;
-  return 0;
-}
-
-int EmulatedV4l2::streamOn(Instance& device, int fd) {
-  if (device.owner_fd != fd) return violation("VIDIOC_STREAMON without buffers", EINVAL);
-  if (device.streaming) return 0;
-  device.streaming = true;
-  device.sequence = 0;
-  changed_.notify_all();
-  return 0;
-}
-
-void EmulatedV4l2::streamOff(Instance& device) {
-  // STREAMOFF hands every buffer back to the application, filled or not.
-  device.streaming = false;
-  for (EmulatedBuffer& buffer : device.buffers) buffer.state = BufferState::kDequeued;
-  device.queued.clear();
-  device.done.clear();
-  device.sequence = 0;
-  changed_.notify_all();
-}
-
-void* EmulatedV4l2::mmap(size_t length, int prot, int flags, int fd, off_t offset) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  (void)prot;
-  auto file = files_.find(fd);
-  if (file == files_.end()) {
-    errno = violation("mmap of unknown fd", EBADF);
-    return MAP_FAILED;
-  }
-  const std::string& path = file->second->path;
-  Instance& device = *file->second->device;
-  int error = 0;
-  const auto index = static_cast<uint32_t>(offset >> kOffsetShift);
-  if (!device.alive) {
-    error = ENODEV;
-  } else if (!(flags & MAP_SHARED)) {
-    error = violation("mmap without MAP_SHARED", EINVAL);
-  } else if ((offset & ((off_t{1} << kOffsetShift) - 1)) != 0 || index >= device.buffers.size()) {
-    error = violation("mmap of an offset no buffer has", EINVAL);
-  } else if (length > device.buffers[index].memory->size()) {
-    error = violation("mmap longer than the buffer", EINVAL);
-  }
-  log(path, "mmap", error);
-  if (error != 0) {
-    errno = error;
-    return MAP_FAILED;
-  }
-  EmulatedBuffer& buffer = device.buffers[index];
-  void* address = buffer.memory->data();
-  auto& mapping = mappings_[address];
-  if (!mapping) {
-    mapping =
-        std::make_unique<Mapping>(Mapping{path, buffer.memory, file->second->device, index, 0});
-  }
-  ++mapping->count;
-  ++buffer.mapped;
-  return address;
-}
-
-int EmulatedV4l2::munmap(void* address, size_t length) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto found = mappings_.find(address);
-  if (found == mappings_.end() || length > found->second->memory->size()) {
-    errno = violation("munmap of memory that is not a mapped buffer", EINVAL);
-    return -1;
-  }
-  Mapping& mapping = *found->second;
-  if (auto device = mapping.device.lock();
-      device && mapping.index < device->buffers.size() &&
-      device->buffers[mapping.index].memory == mapping.memory) {
-    --device->buffers[mapping.index].mapped;
-  }
-  log(mapping.path, "munmap", 0);
-  if (--mapping.count == 0) mappings_.erase(found);
-  changed_.notify_all();
-  return 0;
-}
-
-short EmulatedV4l2::pollEvents(int fd) const {
-  auto file = files_.find(fd);
-  if (file == files_.end()) return POLLNVAL;
-  const Instance& device = *file->second->device;
-  if (!device.alive) return POLLERR | POLLHUP;
-  // As vb2_core_poll: an error while not streaming or with nothing queued to fill.
-  if (!device.streaming) return POLLERR;
-  if (!device.done.empty()) return POLLIN | POLLRDNORM;
-  if (device.queued.empty()) return POLLERR;
-  return 0;
-}
-
-int EmulatedV4l2::poll(pollfd* fds, nfds_t count, int timeout_ms) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
-  for (;;) {
-    int ready = 0;
-    for (nfds_t i = 0; i < count; ++i) {
-      fds[i].revents = static_cast<short>(pollEvents(fds[i].fd) &
-                                          (fds[i].events | POLLERR | POLLHUP | POLLNVAL));
-      if (fds[i].revents != 0) ++ready;
-    }
-    if (ready > 0 || timeout_ms == 0) return ready;
-    if (timeout_ms < 0) {
-      changed_.wait(lock);
-    } else if (changed_.wait_until(lock, deadline) == std::cv_status::timeout) {
-      timeout_ms = 0;  // One last look, then report the timeout.
-    }
   }
 }
 
