@@ -67,6 +67,209 @@ bool isLoopbackGvCamera(ArvCamera* camera) {
              g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(address)));
 }
 
+Status failure(const std::string& label, const std::string& what, const GErrorHolder& error) {
+  return Status::Error(label + ": " + what + ": " + error.message());
+}
+
+// The config's pixel format, else the camera's current one when convertible, else ours in order.
+// `fixed` is the first open's choice, which every reopen keeps.
+Expected<uint32_t> choosePixelFormat(ArvCamera* camera, const CameraConfig& config, uint32_t fixed,
+                                     const std::string& label) {
+  GErrorHolder error;
+  guint count = 0;
+  std::unique_ptr<gint64, aravis::GFree> codes(
+      arv_camera_dup_available_pixel_formats(camera, &count, error.out()));
+  if (error) return failure(label, "reading PixelFormat", error);
+  aravis::BorrowedStrings names(
+      arv_camera_dup_available_pixel_formats_as_strings(camera, &count, error.out()));
+  if (error) return failure(label, "reading PixelFormat", error);
+  if (fixed != 0) return fixed;
+  std::string offered;
+  for (guint i = 0; i < count; ++i) offered += (i ? ", " : "") + aravis::orEmpty(names[i]);
+  auto isOffered = [&](uint32_t code) {
+    return std::any_of(codes.get(), codes.get() + count,
+                       [&](gint64 offered_code) { return offered_code == code; });
+  };
+  uint32_t format = 0;
+  if (!config.pixel_format.empty()) {
+    for (guint i = 0; i < count; ++i) {
+      if (config.pixel_format == aravis::orEmpty(names[i]))
+        format = static_cast<uint32_t>(codes.get()[i]);
+    }
+    if (format == 0) {
+      return Status::Error(label + ": pixel format '" + config.pixel_format +
+                           "' not offered; the camera offers " + offered);
+    }
+    if (!isConvertibleArvPixelFormat(format)) {
+      return Status::Error(label + ": pixel format '" + config.pixel_format +
+                           "' is not supported by mocapd; use one of " +
+                           convertibleArvPixelFormatList());
+    }
+    return format;
+  }
+  const auto current = static_cast<uint32_t>(arv_camera_get_pixel_format(camera, error.out()));
+  if (!error && isConvertibleArvPixelFormat(current) && isOffered(current)) format = current;
+  for (uint32_t candidate : convertibleArvPixelFormats()) {
+    if (format == 0 && isOffered(candidate)) format = candidate;
+  }
+  if (format == 0) {
+    return Status::Error(label + ": offers only " + offered + "; mocapd converts " +
+                         convertibleArvPixelFormatList());
+  }
+  return format;
+}
+
+// The configured size at the sensor's top-left corner: offsets first, so the width and height
+// bounds are the sensor's own. Succeeds only when the camera keeps exactly that size.
+Status setRegion(ArvCamera* camera, const CameraConfig& config, const std::string& label) {
+  GErrorHolder error;
+  gint x = 0, y = 0, width = 0, height = 0;
+  arv_camera_get_region(camera, &x, &y, &width, &height, error.out());
+  if (error) return failure(label, "reading the region", error);
+  if ((x != 0 || y != 0) && arv_camera_is_region_offset_available(camera, nullptr)) {
+    arv_camera_set_region(camera, 0, 0, width, height, error.out());
+    if (error) return failure(label, "resetting the region offset", error);
+  }
+  gint min = 0, max = 0;
+  arv_camera_get_width_bounds(camera, &min, &max, error.out());
+  if (error) return failure(label, "reading Width bounds", error);
+  std::string range =
+      checkRange("width", config.width, min, max, arv_camera_get_width_increment(camera, nullptr));
+  arv_camera_get_height_bounds(camera, &min, &max, error.out());
+  if (error) return failure(label, "reading Height bounds", error);
+  if (range.empty()) {
+    range = checkRange("height", config.height, min, max,
+                       arv_camera_get_height_increment(camera, nullptr));
+  }
+  if (!range.empty()) return Status::Error(label + ": " + range);
+  arv_camera_set_region(camera, 0, 0, config.width, config.height, error.out());
+  if (error) return failure(label, "setting the region", error);
+  arv_camera_get_region(camera, &x, &y, &width, &height, error.out());
+  if (error) return failure(label, "reading the region", error);
+  if (width != config.width || height != config.height) {
+    return Status::Error(label + ": requested " + std::to_string(config.width) + "x" +
+                         std::to_string(config.height) + ", the camera kept " +
+                         std::to_string(width) + "x" + std::to_string(height));
+  }
+  return Status::Ok();
+}
+
+// Free-run only: a triggered camera runs at its trigger's rate. Returns the rate granted (the
+// configured one when the camera cannot tell).
+Expected<double> setFrameRate(ArvCamera* camera, const CameraConfig& config,
+                              const std::string& label, std::vector<std::string>& notes) {
+  if (config.trigger != TriggerMode::kFreeRun) return config.fps;
+  if (!arv_camera_is_frame_rate_available(camera, nullptr)) {
+    notes.push_back("frame rate not settable; the camera runs at its own rate");
+    return config.fps;
+  }
+  GErrorHolder error;
+  double fps_min = 0, fps_max = 0;
+  arv_camera_get_frame_rate_bounds(camera, &fps_min, &fps_max, error.out());
+  if (error) return failure(label, "reading AcquisitionFrameRate bounds", error);
+  if (config.fps < fps_min || config.fps > fps_max) {
+    return Status::Error(label + ": " + number(config.fps) + " fps is not possible at " +
+                         std::to_string(config.width) + "x" + std::to_string(config.height) + ": " +
+                         number(fps_min) + ".." + number(fps_max));
+  }
+  arv_camera_set_frame_rate(camera, config.fps, error.out());
+  if (error) return failure(label, "setting AcquisitionFrameRate", error);
+  const double fps = arv_camera_get_frame_rate(camera, error.out());
+  if (error) return failure(label, "reading AcquisitionFrameRate", error);
+  if (std::abs(fps - config.fps) > 0.01 * config.fps) {
+    notes.push_back("requested " + number(config.fps) + " fps, granted " + number(fps));
+  }
+  return fps;
+}
+
+Status setExposure(ArvCamera* camera, const CameraConfig& config, const std::string& label,
+                   std::vector<std::string>& notes) {
+  if (!config.exposure_us) return Status::Ok();
+  if (!arv_camera_is_exposure_time_available(camera, nullptr)) {
+    notes.push_back("exposure_us not applied: the camera has no exposure time control");
+    return Status::Ok();
+  }
+  GErrorHolder error;
+  double exposure_min = 0, exposure_max = 0;
+  arv_camera_get_exposure_time_bounds(camera, &exposure_min, &exposure_max, error.out());
+  if (error) return failure(label, "reading ExposureTime bounds", error);
+  if (*config.exposure_us < exposure_min || *config.exposure_us > exposure_max) {
+    return Status::Error(label + ": exposure_us " + number(*config.exposure_us) +
+                         " is not possible: " + number(exposure_min) + ".." + number(exposure_max));
+  }
+  if (arv_camera_is_exposure_auto_available(camera, nullptr)) {
+    arv_camera_set_exposure_time_auto(camera, ARV_AUTO_OFF, error.out());
+    if (error) return failure(label, "setting ExposureAuto Off", error);
+  }
+  arv_camera_set_exposure_time(camera, *config.exposure_us, error.out());
+  if (error) return failure(label, "setting ExposureTime", error);
+  return Status::Ok();
+}
+
+Status setGain(ArvCamera* camera, const CameraConfig& config, const std::string& label,
+               std::vector<std::string>& notes) {
+  if (!config.gain_db) return Status::Ok();
+  // GainRaw is in device units; only the standard Gain feature is in dB.
+  if (!arv_camera_is_feature_available(camera, "Gain", nullptr)) {
+    notes.push_back("gain_db not applied: the camera has no Gain feature in dB");
+    return Status::Ok();
+  }
+  GErrorHolder error;
+  double gain_min = 0, gain_max = 0;
+  arv_camera_get_gain_bounds(camera, &gain_min, &gain_max, error.out());
+  if (error) return failure(label, "reading Gain bounds", error);
+  if (*config.gain_db < gain_min || *config.gain_db > gain_max) {
+    return Status::Error(label + ": gain_db " + number(*config.gain_db) +
+                         " is not possible: " + number(gain_min) + ".." + number(gain_max));
+  }
+  if (arv_camera_is_gain_auto_available(camera, nullptr)) {
+    arv_camera_set_gain_auto(camera, ARV_AUTO_OFF, error.out());
+    if (error) return failure(label, "setting GainAuto Off", error);
+  }
+  arv_camera_set_gain(camera, *config.gain_db, error.out());
+  if (error) return failure(label, "setting Gain", error);
+  return Status::Ok();
+}
+
+Status setTrigger(ArvCamera* camera, const CameraConfig& config, const std::string& label) {
+  GErrorHolder error;
+  switch (config.trigger) {
+    case TriggerMode::kFreeRun:
+      if (arv_camera_is_feature_available(camera, "TriggerMode", nullptr)) {
+        arv_camera_clear_triggers(camera, error.out());
+        if (error) return failure(label, "switching triggers off", error);
+      }
+      break;
+    case TriggerMode::kSoftware:
+      if (!arv_camera_is_software_trigger_supported(camera, nullptr)) {
+        return Status::Error(label + ": has no software trigger");
+      }
+      arv_camera_set_trigger(camera, "Software", error.out());
+      if (error) return failure(label, "setting the software trigger", error);
+      break;
+    case TriggerMode::kHardwareLine: {
+      guint n_sources = 0;
+      aravis::BorrowedStrings sources(
+          arv_camera_dup_available_trigger_sources(camera, &n_sources, error.out()));
+      if (error) return failure(label, "reading TriggerSource", error);
+      std::string listed;
+      bool found = false;
+      for (guint i = 0; i < n_sources; ++i) {
+        listed += (i ? ", " : "") + aravis::orEmpty(sources[i]);
+        found = found || config.trigger_line == aravis::orEmpty(sources[i]);
+      }
+      if (!found) {
+        return Status::Error(label + ": no trigger source '" + config.trigger_line +
+                             "'; the camera offers " + (listed.empty() ? "none" : listed));
+      }
+      arv_camera_set_trigger(camera, config.trigger_line.c_str(), error.out());
+      if (error) return failure(label, "setting the trigger on " + config.trigger_line, error);
+      break;
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 AravisCamera::AravisCamera(const CameraConfig& config, const AravisOptions& options)
@@ -90,7 +293,8 @@ AravisCamera::~AravisCamera() {
 
 Status AravisCamera::openSession() {
   const bool first_open = device_id_.empty();
-  Expected<aravis::OpenedCamera> opened = aravis::openCamera(first_open ? config_.device : device_id_);
+  Expected<aravis::OpenedCamera> opened =
+      aravis::openCamera(first_open ? config_.device : device_id_);
   if (!opened.ok()) return Status::Error(opened.error());
   auto session = std::make_unique<AravisSession>();
   session->camera = std::move(opened.value().camera);
@@ -111,192 +315,28 @@ Status AravisCamera::configure(AravisSession& session) {
   ArvCamera* camera = session.camera.get();
   const bool first_open = pixel_format_ == 0;
   const std::string label = "aravis: camera " + device_id_;
+  const Expected<uint32_t> format = choosePixelFormat(camera, config_, pixel_format_, label);
+  if (!format.ok()) return Status::Error(format.error());
   GErrorHolder error;
-  auto failed = [&](const std::string& what) {
-    return Status::Error(label + ": " + what + ": " + error.message());
-  };
-
-  // Pixel format: the config's, else the camera's current one when convertible, else ours in order.
-  guint count = 0;
-  std::unique_ptr<gint64, aravis::GFree> codes(
-      arv_camera_dup_available_pixel_formats(camera, &count, error.out()));
-  if (error) return failed("reading PixelFormat");
-  aravis::BorrowedStrings names(
-      arv_camera_dup_available_pixel_formats_as_strings(camera, &count, error.out()));
-  if (error) return failed("reading PixelFormat");
-  std::string offered;
-  for (guint i = 0; i < count; ++i) offered += (i ? ", " : "") + aravis::orEmpty(names[i]);
-  auto isOffered = [&](uint32_t code) {
-    return std::any_of(codes.get(), codes.get() + count,
-                       [&](gint64 offered_code) { return offered_code == code; });
-  };
-  uint32_t format = pixel_format_;
-  if (first_open && !config_.pixel_format.empty()) {
-    for (guint i = 0; i < count; ++i) {
-      if (config_.pixel_format == aravis::orEmpty(names[i])) format = static_cast<uint32_t>(codes.get()[i]);
-    }
-    if (format == 0) {
-      return Status::Error(label + ": pixel format '" + config_.pixel_format +
-                           "' not offered; the camera offers " + offered);
-    }
-    if (!isConvertibleArvPixelFormat(format)) {
-      return Status::Error(label + ": pixel format '" + config_.pixel_format +
-                           "' is not supported by mocapd; use one of " +
-                           convertibleArvPixelFormatList());
-    }
-  } else if (first_open) {
-    const auto current = static_cast<uint32_t>(arv_camera_get_pixel_format(camera, error.out()));
-    if (!error && isConvertibleArvPixelFormat(current) && isOffered(current)) format = current;
-    for (uint32_t candidate : convertibleArvPixelFormats()) {
-      if (format == 0 && isOffered(candidate)) format = candidate;
-    }
-    if (format == 0) {
-      return Status::Error(label + ": offers only " + offered + "; mocapd converts " +
-                           convertibleArvPixelFormatList());
-    }
-  }
-  arv_camera_set_pixel_format(camera, format, error.out());
-  if (error) return failed("setting PixelFormat " + arvPixelFormatName(format));
-
-  // Region at the sensor's top-left corner: offsets first, so the width and height bounds are the
-  // sensor's own.
-  gint x = 0, y = 0, width = 0, height = 0;
-  arv_camera_get_region(camera, &x, &y, &width, &height, error.out());
-  if (error) return failed("reading the region");
-  if ((x != 0 || y != 0) && arv_camera_is_region_offset_available(camera, nullptr)) {
-    arv_camera_set_region(camera, 0, 0, width, height, error.out());
-    if (error) return failed("resetting the region offset");
-  }
-  gint min = 0, max = 0;
-  arv_camera_get_width_bounds(camera, &min, &max, error.out());
-  if (error) return failed("reading Width bounds");
-  std::string range = checkRange("width", config_.width, min, max,
-                                 arv_camera_get_width_increment(camera, nullptr));
-  arv_camera_get_height_bounds(camera, &min, &max, error.out());
-  if (error) return failed("reading Height bounds");
-  if (range.empty()) {
-    range = checkRange("height", config_.height, min, max,
-                       arv_camera_get_height_increment(camera, nullptr));
-  }
-  if (!range.empty()) return Status::Error(label + ": " + range);
-  arv_camera_set_region(camera, 0, 0, config_.width, config_.height, error.out());
-  if (error) return failed("setting the region");
-  arv_camera_get_region(camera, &x, &y, &width, &height, error.out());
-  if (error) return failed("reading the region");
-  if (width != config_.width || height != config_.height) {
-    return Status::Error(label + ": requested " + std::to_string(config_.width) + "x" +
-                         std::to_string(config_.height) + ", the camera kept " +
-                         std::to_string(width) + "x" + std::to_string(height));
-  }
-
-  // Frame rate, free-run only: a triggered camera runs at its trigger's rate.
+  arv_camera_set_pixel_format(camera, format.value(), error.out());
+  if (error)
+    return failure(label, "setting PixelFormat " + arvPixelFormatName(format.value()), error);
+  if (Status status = setRegion(camera, config_, label); !status.ok()) return status;
   std::vector<std::string> notes;
-  double fps = config_.fps;
-  if (config_.trigger == TriggerMode::kFreeRun) {
-    if (arv_camera_is_frame_rate_available(camera, nullptr)) {
-      double fps_min = 0, fps_max = 0;
-      arv_camera_get_frame_rate_bounds(camera, &fps_min, &fps_max, error.out());
-      if (error) return failed("reading AcquisitionFrameRate bounds");
-      if (config_.fps < fps_min || config_.fps > fps_max) {
-        return Status::Error(label + ": " + number(config_.fps) + " fps is not possible at " +
-                             std::to_string(width) + "x" + std::to_string(height) + ": " +
-                             number(fps_min) + ".." + number(fps_max));
-      }
-      arv_camera_set_frame_rate(camera, config_.fps, error.out());
-      if (error) return failed("setting AcquisitionFrameRate");
-      fps = arv_camera_get_frame_rate(camera, error.out());
-      if (error) return failed("reading AcquisitionFrameRate");
-      if (std::abs(fps - config_.fps) > 0.01 * config_.fps) {
-        notes.push_back("requested " + number(config_.fps) + " fps, granted " + number(fps));
-      }
-    } else {
-      notes.push_back("frame rate not settable; the camera runs at its own rate");
-    }
-  }
-
-  if (config_.exposure_us) {
-    if (!arv_camera_is_exposure_time_available(camera, nullptr)) {
-      notes.push_back("exposure_us not applied: the camera has no exposure time control");
-    } else {
-      double exposure_min = 0, exposure_max = 0;
-      arv_camera_get_exposure_time_bounds(camera, &exposure_min, &exposure_max, error.out());
-      if (error) return failed("reading ExposureTime bounds");
-      if (*config_.exposure_us < exposure_min || *config_.exposure_us > exposure_max) {
-        return Status::Error(label + ": exposure_us " + number(*config_.exposure_us) +
-                             " is not possible: " + number(exposure_min) + ".." +
-                             number(exposure_max));
-      }
-      if (arv_camera_is_exposure_auto_available(camera, nullptr)) {
-        arv_camera_set_exposure_time_auto(camera, ARV_AUTO_OFF, error.out());
-        if (error) return failed("setting ExposureAuto Off");
-      }
-      arv_camera_set_exposure_time(camera, *config_.exposure_us, error.out());
-      if (error) return failed("setting ExposureTime");
-    }
-  }
-
-  if (config_.gain_db) {
-    // GainRaw is in device units; only the standard Gain feature is in dB.
-    if (!arv_camera_is_feature_available(camera, "Gain", nullptr)) {
-      notes.push_back("gain_db not applied: the camera has no Gain feature in dB");
-    } else {
-      double gain_min = 0, gain_max = 0;
-      arv_camera_get_gain_bounds(camera, &gain_min, &gain_max, error.out());
-      if (error) return failed("reading Gain bounds");
-      if (*config_.gain_db < gain_min || *config_.gain_db > gain_max) {
-        return Status::Error(label + ": gain_db " + number(*config_.gain_db) +
-                             " is not possible: " + number(gain_min) + ".." + number(gain_max));
-      }
-      if (arv_camera_is_gain_auto_available(camera, nullptr)) {
-        arv_camera_set_gain_auto(camera, ARV_AUTO_OFF, error.out());
-        if (error) return failed("setting GainAuto Off");
-      }
-      arv_camera_set_gain(camera, *config_.gain_db, error.out());
-      if (error) return failed("setting Gain");
-    }
-  }
-
-  switch (config_.trigger) {
-    case TriggerMode::kFreeRun:
-      if (arv_camera_is_feature_available(camera, "TriggerMode", nullptr)) {
-        arv_camera_clear_triggers(camera, error.out());
-        if (error) return failed("switching triggers off");
-      }
-      break;
-    case TriggerMode::kSoftware:
-      if (!arv_camera_is_software_trigger_supported(camera, nullptr)) {
-        return Status::Error(label + ": has no software trigger");
-      }
-      arv_camera_set_trigger(camera, "Software", error.out());
-      if (error) return failed("setting the software trigger");
-      break;
-    case TriggerMode::kHardwareLine: {
-      guint n_sources = 0;
-      aravis::BorrowedStrings sources(
-          arv_camera_dup_available_trigger_sources(camera, &n_sources, error.out()));
-      if (error) return failed("reading TriggerSource");
-      std::string listed;
-      bool found = false;
-      for (guint i = 0; i < n_sources; ++i) {
-        listed += (i ? ", " : "") + aravis::orEmpty(sources[i]);
-        found = found || config_.trigger_line == aravis::orEmpty(sources[i]);
-      }
-      if (!found) {
-        return Status::Error(label + ": no trigger source '" + config_.trigger_line +
-                             "'; the camera offers " + (listed.empty() ? "none" : listed));
-      }
-      arv_camera_set_trigger(camera, config_.trigger_line.c_str(), error.out());
-      if (error) return failed("setting the trigger on " + config_.trigger_line);
-      break;
-    }
-  }
+  const Expected<double> fps = setFrameRate(camera, config_, label, notes);
+  if (!fps.ok()) return Status::Error(fps.error());
+  if (Status status = setExposure(camera, config_, label, notes); !status.ok()) return status;
+  if (Status status = setGain(camera, config_, label, notes); !status.ok()) return status;
+  if (Status status = setTrigger(camera, config_, label); !status.ok()) return status;
 
   if (!first_open) return Status::Ok();
-  pixel_format_ = format;
+  pixel_format_ = format.value();
   const std::string vendor = aravis::orEmpty(arv_camera_get_vendor_name(camera, nullptr));
   const std::string model = aravis::orEmpty(arv_camera_get_model_name(camera, nullptr));
-  info_ = {"aravis", device_id_, vendor + (vendor.empty() ? "" : " ") + model,
-           {{width, height, fps, arvPixelFormatName(format)}}};
+  info_ = {"aravis",
+           device_id_,
+           vendor + (vendor.empty() ? "" : " ") + model,
+           {{config_.width, config_.height, fps.value(), arvPixelFormatName(format.value())}}};
   for (const std::string& note : notes) {
     configuration_note_ += (configuration_note_.empty() ? label + ": " : "; ") + note;
   }
