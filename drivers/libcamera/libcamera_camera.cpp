@@ -13,8 +13,6 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <map>
 #include <span>
@@ -24,6 +22,7 @@
 #include <libcamera/libcamera.h>
 
 #include "drivers/libcamera/libcamera_device.h"
+#include "drivers/libcamera/libcamera_settings.h"
 
 namespace mocap {
 
@@ -51,44 +50,6 @@ struct LibcameraSession {
 };
 
 namespace {
-
-std::string number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%g", value);
-  return text;
-}
-
-std::string describeMode(unsigned int width, unsigned int height, double fps, uint32_t fourcc) {
-  return std::to_string(width) + "x" + std::to_string(height) +
-         (fps > 0 ? " @ " + number(fps) + " fps" : "") + " " + libcameraFormatName(fourcc);
-}
-
-// [min, max] of a scalar numeric control, or nothing when the pipeline does not give one.
-std::optional<std::pair<double, double>> numericRange(const libcamera::ControlInfo& info) {
-  auto scalar = [](const libcamera::ControlValue& value) -> std::optional<double> {
-    if (value.isArray()) return std::nullopt;
-    switch (value.type()) {
-      case libcamera::ControlTypeInteger32:
-        return value.get<int32_t>();
-      case libcamera::ControlTypeInteger64:
-        return static_cast<double>(value.get<int64_t>());
-      case libcamera::ControlTypeFloat:
-        return value.get<float>();
-      default:
-        return std::nullopt;
-    }
-  };
-  const std::optional<double> min = scalar(info.min());
-  const std::optional<double> max = scalar(info.max());
-  if (!min || !max) return std::nullopt;
-  return std::make_pair(*min, *max);
-}
-
-const libcamera::ControlInfo* findControl(const libcamera::ControlInfoMap& controls,
-                                          const libcamera::ControlId& id) {
-  const auto found = controls.find(id.id());
-  return found == controls.end() ? nullptr : &found->second;
-}
 
 // Maps every dmabuf of the buffer once (planes often share one fd at different offsets).
 Status mapBuffer(LibcameraSession& session, const libcamera::FrameBuffer& buffer) {
@@ -135,10 +96,11 @@ Status checkLibcameraConfig(const CameraConfig& config) {
                          " is not possible: width and height must be positive");
   }
   if (!(config.fps > 0)) {
-    return Status::Error(label + ": fps " + number(config.fps) + " is not possible: it must be positive");
+    return Status::Error(label + ": fps " + lc::numberText(config.fps) +
+                         " is not possible: it must be positive");
   }
   if (config.exposure_us && !(*config.exposure_us > 0)) {
-    return Status::Error(label + ": exposure_us " + number(*config.exposure_us) +
+    return Status::Error(label + ": exposure_us " + lc::numberText(*config.exposure_us) +
                          " is not possible: it must be positive");
   }
   if (!config.pixel_format.empty() && !libcameraFormatFromName(config.pixel_format)) {
@@ -201,52 +163,25 @@ Status LibcameraCamera::configure(LibcameraSession& session) {
   }
   libcamera::StreamConfiguration& stream_config = session.configuration->at(0);
   const libcamera::StreamFormats formats = stream_config.formats();
-  const std::vector<libcamera::PixelFormat> offered = formats.pixelformats();
   std::string offered_text;
-  for (const libcamera::PixelFormat& format : offered) {
+  for (const libcamera::PixelFormat& format : formats.pixelformats()) {
     offered_text += (offered_text.empty() ? "" : ", ") + format.toString();
   }
-  auto isOffered = [&](uint32_t fourcc) {
-    return std::any_of(offered.begin(), offered.end(),
-                       [&](const libcamera::PixelFormat& format) { return format.fourcc() == fourcc; });
-  };
   const unsigned int width = first_open ? config_.width : info_.modes.front().width;
   const unsigned int height = first_open ? config_.height : info_.modes.front().height;
   const libcamera::Size wanted_size(width, height);
-
-  // Pixel format: the config's, else the first convertible one offered at the wanted size, else the
-  // first convertible one offered at all.
   uint32_t fourcc = fourcc_;
-  if (first_open && !config_.pixel_format.empty()) {
-    fourcc = *libcameraFormatFromName(config_.pixel_format);
-    if (!isOffered(fourcc)) {
-      return Status::Error(label + ": pixel format " + libcameraFormatName(fourcc) +
-                           " not offered; the camera offers " + offered_text);
-    }
-  } else if (first_open) {
-    int best_rank = 2;
-    for (uint32_t candidate : convertibleLibcameraFormats()) {
-      if (!isOffered(candidate)) continue;
-      const libcamera::PixelFormat format(candidate);
-      const std::vector<libcamera::Size> sizes = formats.sizes(format);
-      const bool fits = std::find(sizes.begin(), sizes.end(), wanted_size) != sizes.end() ||
-                        (sizes.empty() && formats.range(format).contains(wanted_size));
-      const int rank = fits ? 0 : 1;
-      if (rank < best_rank) {
-        best_rank = rank;
-        fourcc = candidate;
-      }
-    }
-    if (fourcc == 0) {
-      return Status::Error(label + ": offers only " + offered_text + "; mocapd converts " +
-                           convertibleLibcameraFormatList());
-    }
+  if (first_open) {
+    const Expected<uint32_t> chosen =
+        lc::choosePixelFormat(config_, formats, wanted_size, offered_text, label);
+    if (!chosen.ok()) return Status::Error(chosen.error());
+    fourcc = chosen.value();
   }
 
   stream_config.pixelFormat = libcamera::PixelFormat(fourcc);
   stream_config.size = wanted_size;
   stream_config.bufferCount = options_.buffer_count;
-  const std::string requested_text = describeMode(width, height, 0, fourcc);
+  const std::string requested_text = lc::describeMode(width, height, 0, fourcc);
   if (session.configuration->validate() == libcamera::CameraConfiguration::Invalid) {
     return Status::Error(label + ": cannot capture " + requested_text +
                          ": libcamera rejects the configuration as invalid (the camera offers " +
@@ -256,8 +191,10 @@ Status LibcameraCamera::configure(LibcameraSession& session) {
   const libcamera::Size granted = stream_config.size;
   const uint32_t granted_fourcc = stream_config.pixelFormat.fourcc();
   const std::string granted_text =
-      describeMode(granted.width, granted.height, 0, granted_fourcc) +
-      (isConvertibleLibcameraFormat(granted_fourcc) ? "" : " (" + stream_config.pixelFormat.toString() + ")");
+      lc::describeMode(granted.width, granted.height, 0, granted_fourcc) +
+      (isConvertibleLibcameraFormat(granted_fourcc)
+           ? ""
+           : " (" + stream_config.pixelFormat.toString() + ")");
   if (granted_fourcc != fourcc) {
     return Status::Error(label + ": cannot capture " + requested_text + "; the camera granted " +
                          granted_text + " (it offers " + offered_text + ")");
@@ -276,58 +213,16 @@ Status LibcameraCamera::configure(LibcameraSession& session) {
   const libcamera::ControlInfoMap& available = camera.controls();
   libcamera::ControlList controls(available);
   std::vector<std::string> notes;
-  double fps = 0;
-  if (const libcamera::ControlInfo* info = findControl(available, libcamera::controls::FrameDurationLimits)) {
-    // Frame durations are in microseconds: the shortest gives the highest rate.
-    if (const auto range = numericRange(*info); range && range->first > 0 && range->second > 0) {
-      const double fps_min = 1e6 / range->second;
-      const double fps_max = 1e6 / range->first;
-      if (config_.fps < fps_min * 0.999 || config_.fps > fps_max * 1.001) {
-        return Status::Error(label + ": " + number(config_.fps) + " fps is not possible at " +
-                             describeMode(granted.width, granted.height, 0, fourcc) + ": " +
-                             number(fps_min) + ".." + number(fps_max));
-      }
-    }
-    const auto duration_us = static_cast<int64_t>(std::llround(1e6 / config_.fps));
-    controls.set(libcamera::controls::FrameDurationLimits, {duration_us, duration_us});
-    fps = config_.fps;
-  } else {
-    notes.push_back("frame rate not settable (no FrameDurationLimits); the camera runs at its own rate");
+  const Expected<double> frame_rate =
+      lc::setFrameRate(available, config_, label,
+                       lc::describeMode(granted.width, granted.height, 0, fourcc), controls, notes);
+  if (!frame_rate.ok()) return Status::Error(frame_rate.error());
+  const double fps = frame_rate.value();
+  if (Status status = lc::setExposure(available, config_, label, controls, notes); !status.ok()) {
+    return status;
   }
-
-  const libcamera::ControlInfo* auto_exposure = findControl(available, libcamera::controls::AeEnable);
-  if (config_.exposure_us) {
-    const libcamera::ControlInfo* info = findControl(available, libcamera::controls::ExposureTime);
-    if (!info) {
-      notes.push_back("exposure_us not applied: the camera has no ExposureTime control");
-    } else {
-      const auto range = numericRange(*info);
-      if (range && (*config_.exposure_us < range->first || *config_.exposure_us > range->second)) {
-        return Status::Error(label + ": exposure_us " + number(*config_.exposure_us) +
-                             " is not possible: " + number(range->first) + ".." +
-                             number(range->second));
-      }
-      if (auto_exposure) controls.set(libcamera::controls::AeEnable, false);
-      controls.set(libcamera::controls::ExposureTime,
-                   static_cast<int32_t>(std::lround(*config_.exposure_us)));
-    }
-  }
-  if (config_.gain_db) {
-    // libcamera's AnalogueGain is a linear factor.
-    const libcamera::ControlInfo* info = findControl(available, libcamera::controls::AnalogueGain);
-    if (!info) {
-      notes.push_back("gain_db not applied: the camera has no AnalogueGain control");
-    } else {
-      const double gain = std::pow(10.0, *config_.gain_db / 20.0);
-      const auto range = numericRange(*info);
-      if (range && range->first > 0 && (gain < range->first * 0.999 || gain > range->second * 1.001)) {
-        return Status::Error(label + ": gain_db " + number(*config_.gain_db) +
-                             " is not possible: " + number(20 * std::log10(range->first)) + ".." +
-                             number(20 * std::log10(range->second)) + " dB");
-      }
-      if (auto_exposure) controls.set(libcamera::controls::AeEnable, false);
-      controls.set(libcamera::controls::AnalogueGain, static_cast<float>(gain));
-    }
+  if (Status status = lc::setGain(available, config_, label, controls, notes); !status.ok()) {
+    return status;
   }
   session.start_controls = std::move(controls);
 
@@ -337,8 +232,9 @@ Status LibcameraCamera::configure(LibcameraSession& session) {
            {{static_cast<int>(granted.width), static_cast<int>(granted.height), fps,
              libcameraFormatName(fourcc)}}};
   if (granted != wanted_size) {
-    notes.insert(notes.begin(), "requested " + describeMode(width, height, config_.fps, fourcc) +
-                                    ", granted " + describeMode(granted.width, granted.height, fps, fourcc));
+    notes.insert(notes.begin(),
+                 "requested " + lc::describeMode(width, height, config_.fps, fourcc) +
+                     ", granted " + lc::describeMode(granted.width, granted.height, fps, fourcc));
   }
   for (const std::string& note : notes) {
     configuration_note_ += (configuration_note_.empty() ? label + ": " : "; ") + note;
