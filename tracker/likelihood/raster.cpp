@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <utility>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -189,6 +190,137 @@ struct SpanBox {
   }
 };
 
+// Rows whose centre lies in [p.y, q.y), clipped to the image rows [y0, y1).
+inline std::pair<int, int> rowsCrossed(const Eigen::Vector2d& p, const Eigen::Vector2d& q, int y0,
+                                       int y1) {
+  return std::pair{std::max(y0, ceilToInt(std::max(p.y(), 0.0))),
+                   std::min(y1, ceilToInt(std::clamp(q.y(), 0.0, double(y1))))};
+}
+
+// Whether y never decreases along either chain from the top vertex to the bottom one.
+inline bool chainsAreMonotone(const Eigen::Vector2d* hull, int n, int top, int bottom) {
+  bool monotone = true;
+  for (int v = top; v != bottom && monotone;) {
+    const int to = v + 1 == n ? 0 : v + 1;
+    monotone = hull[to].y() >= hull[v].y();
+    v = to;
+  }
+  for (int v = top; v != bottom && monotone;) {
+    const int to = v == 0 ? n - 1 : v - 1;
+    monotone = hull[to].y() >= hull[v].y();
+    v = to;
+  }
+  return monotone;
+}
+
+// One chain of the hull from the top vertex towards the bottom one (step 1 forward, n - 1
+// backward): the x where its current edge crosses the current row, and the row that edge ends at.
+struct HullChain {
+  int v, step;
+  int end_row = 0;
+  double x = 0, slope = 0;
+};
+
+struct ChainWalker {
+  const Eigen::Vector2d* hull;
+  int n, bottom, y0, y1;
+
+  // Moves `c` to the edge that covers row y (the one starting there) and returns false if there is
+  // none, which monotone chains rule out.
+  bool advance(HullChain& c, int y) const {
+    while (c.v != bottom) {
+      const int to = c.v + c.step < n ? c.v + c.step : c.v + c.step - n;  // no division
+      const Eigen::Vector2d& p = hull[c.v];
+      const Eigen::Vector2d& q = hull[to];
+      c.v = to;
+      const auto [from_row, to_row] = rowsCrossed(p, q, y0, y1);
+      if (to_row > from_row) {
+        if (from_row != y) return false;
+        c.slope = (q.x() - p.x()) / (q.y() - p.y());
+        c.x = p.x() + c.slope * (from_row - p.y());
+        c.end_row = to_row;
+        return true;
+      }
+    }
+    return false;
+  }
+};
+
+// Rows [y, end) of a hull that may reach past the image: clamped first, so the integer conversion
+// is safe for any projection.
+inline void fillClampedRows(HullChain& a, HullChain& b, int& y, int end, double width, RowSpan* out,
+                            SpanBox& box) {
+  double xa = a.x, xb = b.x;
+  for (; y < end; ++y, xa += a.slope, xb += b.slope) {
+    const double left = std::clamp(std::min(xa, xb), 0.0, width);
+    const double right = std::clamp(std::max(xa, xb), left, width);
+    const int x0 = ceilToInt(left);
+    const int x1 = ceilToInt(right);
+    out[y] = {static_cast<int16_t>(x0), static_cast<int16_t>(x1)};
+    box.add(y, x0, x1);
+  }
+  a.x = xa;
+  b.x = xb;
+}
+
+#if defined(__SSE2__)
+// Rows of a hull well inside the image run two lanes (the chains) at once: the same adds, min/max
+// and truncation as the scalar code, so the same spans. The box is accumulated over all rows and
+// redone by a scalar pass only if some row is empty.
+struct LaneSpanBox {
+  __m128i span_min = _mm_set1_epi16(INT16_MAX), span_max = _mm_set1_epi16(INT16_MIN);
+  __m128i all_nonempty = _mm_set1_epi16(-1);
+
+  void resolve(const RowSpan* out, int y0, int y1, SpanBox& box) const {
+    if ((_mm_extract_epi16(all_nonempty, 0) & 1) != 0) {
+      box.first = y0;
+      box.last = y1 - 1;
+      box.xmin = static_cast<int16_t>(_mm_extract_epi16(span_min, 0));
+      box.xmax = static_cast<int16_t>(_mm_extract_epi16(span_max, 1));
+    } else {
+      for (int y = y0; y < y1; ++y) box.add(y, out[y].x0, out[y].x1);
+    }
+  }
+};
+
+inline void fillInsideRows(HullChain& a, HullChain& b, int& y, int end, RowSpan* out,
+                           LaneSpanBox& lanes) {
+  __m128d x = _mm_set_pd(b.x, a.x);
+  const __m128d step = _mm_set_pd(b.slope, a.slope);
+  for (; y < end; ++y, x = _mm_add_pd(x, step)) {
+    const __m128d swapped = _mm_shuffle_pd(x, x, 1);
+    const __m128d lo_hi = _mm_unpacklo_pd(_mm_min_sd(x, swapped), _mm_max_sd(x, swapped));
+    const __m128i truncated = _mm_cvttpd_epi32(lo_hi);
+    const __m128d above = _mm_cmpgt_pd(lo_hi, _mm_cvtepi32_pd(truncated));
+    const __m128i ceiled = _mm_sub_epi32(
+        truncated, _mm_shuffle_epi32(_mm_castpd_si128(above), _MM_SHUFFLE(3, 3, 2, 0)));
+    const __m128i span = _mm_packs_epi32(ceiled, ceiled);  // int16 lanes: x0, x1, ...
+    const int32_t packed = _mm_cvtsi128_si32(span);
+    std::memcpy(static_cast<void*>(&out[y]), &packed, sizeof(RowSpan));  // x0 low, x1 high
+    lanes.span_min = _mm_min_epi16(lanes.span_min, span);
+    lanes.span_max = _mm_max_epi16(lanes.span_max, span);
+    lanes.all_nonempty =
+        _mm_and_si128(lanes.all_nonempty, _mm_cmpgt_epi16(_mm_srli_epi32(span, 16), span));
+  }
+  a.x = _mm_cvtsd_f64(x);
+  b.x = _mm_cvtsd_f64(_mm_unpackhi_pd(x, x));
+}
+#else
+// Rows of a hull well inside the image need no clamping.
+inline void fillInsideRows(HullChain& a, HullChain& b, int& y, int end, RowSpan* out,
+                           SpanBox& box) {
+  double xa = a.x, xb = b.x;
+  for (; y < end; ++y, xa += a.slope, xb += b.slope) {
+    const int x0 = ceilToInt(std::min(xa, xb));
+    const int x1 = ceilToInt(std::max(xa, xb));
+    out[y] = {static_cast<int16_t>(x0), static_cast<int16_t>(x1)};
+    box.add(y, x0, x1);
+  }
+  a.x = xa;
+  b.x = xb;
+}
+#endif
+
 }  // namespace
 
 Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* buffer) {
@@ -210,54 +342,19 @@ Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* bu
   if (y0 >= y1) return f;
 
   // Each chain from the top vertex to the bottom vertex (one forward, one backward) gives an x for
-  // every row its edges cross (rows whose centre lies in [p.y, q.y), clipped to the image),
-  // stepping by the edge's slope; a row takes the smaller as left and the larger as right edge.
-  auto rowRange = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
-    return std::pair{std::max(y0, ceilToInt(std::max(p.y(), 0.0))),
-                     std::min(y1, ceilToInt(std::clamp(q.y(), 0.0, double(y1))))};
-  };
-  // When y never decreases along either chain (a convex hull, barring rounding), the chains' row
-  // ranges tile [y0, y1) in order, so both chains can be walked together row by row. Otherwise a
-  // later edge may overwrite rows, which only the per-chain arrays reproduce.
-  bool monotone = true;
-  for (int v = top; v != bottom && monotone;) {
-    const int to = v + 1 == n ? 0 : v + 1;
-    monotone = hull_[to].y() >= hull_[v].y();
-    v = to;
+  // every row its edges cross, stepping by the edge's slope; a row takes the smaller as left and
+  // the larger as right edge. When y never decreases along either chain (a convex hull, barring
+  // rounding), the chains' row ranges tile [y0, y1) in order, so both chains can be walked
+  // together row by row. Otherwise a later edge may overwrite rows, which only the per-chain
+  // arrays reproduce.
+  if (!chainsAreMonotone(hull_.data(), n, top, bottom)) {
+    return scanChains(camera, y0, y1, top, bottom, buffer);
   }
-  for (int v = top; v != bottom && monotone;) {
-    const int to = v == 0 ? n - 1 : v - 1;
-    monotone = hull_[to].y() >= hull_[v].y();
-    v = to;
+  const ChainWalker walker{hull_.data(), n, bottom, y0, y1};
+  HullChain a{top, 1}, b{top, n - 1};
+  if (!walker.advance(a, y0) || !walker.advance(b, y0)) {
+    return scanChains(camera, y0, y1, top, bottom, buffer);
   }
-  if (!monotone) return scanChains(camera, y0, y1, top, bottom, buffer);
-
-  struct Chain {
-    int v, step;
-    int to_row = 0;
-    double x = 0, slope = 0;
-  };
-  // Moves `c` to the edge that covers row y (the one starting there) and returns false if there is
-  // none, which monotone chains rule out.
-  auto next = [&](Chain& c, int y) {
-    while (c.v != bottom) {
-      const int to = c.v + c.step < n ? c.v + c.step : c.v + c.step - n;  // no division
-      const Eigen::Vector2d& p = hull_[c.v];
-      const Eigen::Vector2d& q = hull_[to];
-      c.v = to;
-      const auto [from_row, to_row] = rowRange(p, q);
-      if (to_row > from_row) {
-        if (from_row != y) return false;
-        c.slope = (q.x() - p.x()) / (q.y() - p.y());
-        c.x = p.x() + c.slope * (from_row - p.y());
-        c.to_row = to_row;
-        return true;
-      }
-    }
-    return false;
-  };
-  Chain a{top, 1}, b{top, n - 1};
-  if (!next(a, y0) || !next(b, y0)) return scanChains(camera, y0, y1, top, bottom, buffer);
   SpanBox box{camera.width, 0};
   // Clamping to the image is a no-op when the hull lies well inside it (the walked x stay within
   // rounding of the hull's x range).
@@ -265,71 +362,25 @@ Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* bu
   const double width = camera.width;
   RowSpan* out = buffer - y0;
 #if defined(__SSE2__)
-  // Inside rows run two lanes (the chains) at once: the same adds, min/max and truncation as the
-  // scalar code, so the same spans. The box is accumulated over all rows and redone by a scalar
-  // pass only if some row is empty.
-  __m128i span_min = _mm_set1_epi16(INT16_MAX), span_max = _mm_set1_epi16(INT16_MIN);
-  __m128i all_nonempty = _mm_set1_epi16(-1);
+  LaneSpanBox lanes;
 #endif
   for (int y = y0;;) {
-    const int end = std::min(a.to_row, b.to_row);
-    double xa = a.x, xb = b.x;
+    const int end = std::min(a.end_row, b.end_row);
     if (inside) {
 #if defined(__SSE2__)
-      __m128d x = _mm_set_pd(xb, xa);
-      const __m128d step = _mm_set_pd(b.slope, a.slope);
-      for (; y < end; ++y, x = _mm_add_pd(x, step)) {
-        const __m128d swapped = _mm_shuffle_pd(x, x, 1);
-        const __m128d lo_hi = _mm_unpacklo_pd(_mm_min_sd(x, swapped), _mm_max_sd(x, swapped));
-        const __m128i truncated = _mm_cvttpd_epi32(lo_hi);
-        const __m128d above = _mm_cmpgt_pd(lo_hi, _mm_cvtepi32_pd(truncated));
-        const __m128i ceiled = _mm_sub_epi32(
-            truncated, _mm_shuffle_epi32(_mm_castpd_si128(above), _MM_SHUFFLE(3, 3, 2, 0)));
-        const __m128i span = _mm_packs_epi32(ceiled, ceiled);  // int16 lanes: x0, x1, ...
-        const int32_t packed = _mm_cvtsi128_si32(span);
-        std::memcpy(static_cast<void*>(&out[y]), &packed, sizeof(RowSpan));  // x0 low, x1 high
-        span_min = _mm_min_epi16(span_min, span);
-        span_max = _mm_max_epi16(span_max, span);
-        all_nonempty = _mm_and_si128(all_nonempty, _mm_cmpgt_epi16(_mm_srli_epi32(span, 16), span));
-      }
-      xa = _mm_cvtsd_f64(x);
-      xb = _mm_cvtsd_f64(_mm_unpackhi_pd(x, x));
+      fillInsideRows(a, b, y, end, out, lanes);
 #else
-      for (; y < end; ++y, xa += a.slope, xb += b.slope) {
-        const int x0 = ceilToInt(std::min(xa, xb));
-        const int x1 = ceilToInt(std::max(xa, xb));
-        out[y] = {static_cast<int16_t>(x0), static_cast<int16_t>(x1)};
-        box.add(y, x0, x1);
-      }
+      fillInsideRows(a, b, y, end, out, box);
 #endif
     } else {
-      for (; y < end; ++y, xa += a.slope, xb += b.slope) {
-        // Clamped first, so the integer conversion is safe for any projection.
-        const double left = std::clamp(std::min(xa, xb), 0.0, width);
-        const double right = std::clamp(std::max(xa, xb), left, width);
-        const int x0 = ceilToInt(left);
-        const int x1 = ceilToInt(right);
-        out[y] = {static_cast<int16_t>(x0), static_cast<int16_t>(x1)};
-        box.add(y, x0, x1);
-      }
+      fillClampedRows(a, b, y, end, width, out, box);
     }
-    a.x = xa;
-    b.x = xb;
     if (y >= y1) break;
-    if ((y == a.to_row && !next(a, y)) || (y == b.to_row && !next(b, y)))
+    if ((y == a.end_row && !walker.advance(a, y)) || (y == b.end_row && !walker.advance(b, y)))
       return scanChains(camera, y0, y1, top, bottom, buffer);
   }
 #if defined(__SSE2__)
-  if (inside) {
-    if ((_mm_extract_epi16(all_nonempty, 0) & 1) != 0) {
-      box.first = y0;
-      box.last = y1 - 1;
-      box.xmin = static_cast<int16_t>(_mm_extract_epi16(span_min, 0));
-      box.xmax = static_cast<int16_t>(_mm_extract_epi16(span_max, 1));
-    } else {
-      for (int y = y0; y < y1; ++y) box.add(y, out[y].x0, out[y].x1);
-    }
-  }
+  if (inside) lanes.resolve(out, y0, y1, box);
 #endif
   return trim(buffer, y0, box.first, box.last, box.xmin, box.xmax);
 }
