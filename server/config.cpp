@@ -276,6 +276,19 @@ class ConfigParser {
       t.lost_after = integer(tracker["lost_after"], "tracker.lost_after", 1, 10'000);
   }
 
+  // `web: {listen: HOST:PORT, enabled: BOOL}`.
+  WebSettings web(const YAML::Node& node) const {
+    onlyKeys(node, "web", {"listen", "enabled"});
+    WebSettings web;
+    if (node["enabled"]) web.enabled = boolean(node["enabled"], "web.enabled");
+    if (node["listen"]) {
+      web.listen = text(node["listen"], "web.listen");
+      if (web.listen.rfind(':') == std::string::npos)
+        fail(node["listen"], "web.listen", "expected host:port, got '" + web.listen + "'");
+    }
+    return web;
+  }
+
   ServerConfig parse(const YAML::Node& root) const {
     ServerConfig config;
     config.source = source_;
@@ -283,7 +296,8 @@ class ConfigParser {
         root, "",
         {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "recording_directory",
          "background_directory", "silhouettes", "before_background", "tls", "auth", "log_level",
-         "scene_motion", "scene_empty_seconds", "scene_fit_pose_seconds", "track_subject_body"});
+         "scene_motion", "scene_empty_seconds", "scene_fit_pose_seconds", "track_subject_body",
+         "web"});
 
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
@@ -442,6 +456,8 @@ class ConfigParser {
       if (config.bearer_token.size() < 16)
         fail(auth, "auth", "the token must be at least 16 characters");
     }
+
+    if (root["web"]) config.web = web(root["web"]);
 
     if (root["log_level"]) {
       const std::string level = text(root["log_level"], "log_level");

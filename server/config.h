@@ -60,6 +60,12 @@ struct SyncSettings {
 };
 
 struct ServerConfig {
+// The web view (server/web_view.h): served by the daemon, on loopback unless told otherwise.
+struct WebSettings {
+  bool enabled = true;
+  std::string listen = "127.0.0.1:8080";
+};
+
   std::string source = "<embedded default>";  // where it came from, for messages
   std::vector<CameraConfig> cameras;
   // OpenCV FileStorage rig file; empty: the rig the cameras' driver describes (fake scene).
@@ -116,6 +122,7 @@ struct ServerConfig {
 
 // The configuration used when mocapd is started without --config: the fake two-camera scene at
 // 780x580 and 25 Hz, listening on loopback.
+  WebSettings web;
 extern const char* const kDefaultConfigYaml;
 
 // Parses and checks a configuration; `source` names it in messages. Relative paths in it are

@@ -58,6 +58,11 @@ Expected<std::unique_ptr<MocapServer>> MocapServer::create(const ServerConfig& c
                                                         *server->pipeline_, server->publisher_);
   step = server->listen();
   if (!step.ok()) return step;
+  if (server->config_.web.enabled) {
+    server->web_ = std::make_unique<WebView>(server->config_, *server->pipeline_, *server->rig_,
+                                             server->publisher_);
+    server->pipeline_->setMaskObserver(server->web_->maskObserver());
+  }
   return server;
 }
 
@@ -306,15 +311,30 @@ Status MocapServer::start() {
 }
 
 void MocapServer::shutdown() {
+  startWebView();
   if (shut_down_) return;
   shut_down_ = true;
   if (server_) server_->GetHealthCheckService()->Shutdown();
+void MocapServer::startWebView() {
+  if (!web_) return;
+  const Status listening = web_->start();
+  if (!listening.ok()) {
+    // Kept, not destroyed: the pipeline's mask observer refers to it.
+    logWarning() << listening.message() << "; running without the web view";
+    return;
+  }
+  const std::string& listen = config_.web.listen;
+  logInfo() << "web view at http://" << listen.substr(0, listen.rfind(':')) << ":" << web_->port()
+            << "/";
+}
+
   if (pipeline_) pipeline_->stop();
   publisher_.close();
   if (server_) server_->Shutdown(std::chrono::system_clock::now() + kShutdownGrace);
   logInfo() << "stopped";
 }
 
+  if (web_) web_->stop();
 std::string describeAvailableCameras() {
   std::ostringstream out;
   for (const std::string& name : DriverRegistry::instance().names()) {

@@ -13,6 +13,7 @@
 #include "server/mocap_service.h"
 #include "server/pipeline.h"
 #include "server/pose_publisher.h"
+#include "server/web_view.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
 #include "tracker/motion/motion.h"
@@ -28,13 +29,16 @@ class MocapServer {
   MocapServer(const MocapServer&) = delete;
   MocapServer& operator=(const MocapServer&) = delete;
 
-  // Starts the cameras and the pipeline.
+  // Starts the cameras, the pipeline and the web view (a web view that cannot listen is a
+  // warning: the capture goes on without it).
   Status start();
   // Marks the service NOT_SERVING, stops the cameras and the pipeline, closes the recording,
   // ends every pose stream with OK and stops the gRPC server. Idempotent.
   void shutdown();
 
   int port() const { return port_; }  // the bound port (useful with "host:0")
+  // The web view's bound port; 0 when it is off or could not listen.
+  int webPort() const { return web_ ? web_->port() : 0; }
   const BodyModel& model() const { return *model_; }
   Pipeline& pipeline() { return *pipeline_; }
 
@@ -53,6 +57,8 @@ class MocapServer {
   // tracker.dofs and tracker.start.
   Status prepareTracking(PipelineInputs& inputs);
   Status listen();
+  // Serves the web view, if configured; a failure to listen is logged, not fatal.
+  void startWebView();
   // A model's speed limits are per frame at its frame_rate; the tracker's frames come at the
   // cameras' rate (the recorded rate in a replay), so the body is tracked rescaled to it.
   void trackAtCameraRate(double fps);
@@ -67,6 +73,7 @@ class MocapServer {
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<MocapServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<WebView> web_;  // null when web.enabled is false
   int port_ = 0;
   bool shut_down_ = false;
 };

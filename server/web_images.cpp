@@ -1,0 +1,91 @@
+// The web view's camera images.
+#include "server/web_images.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace mocap {
+namespace {
+
+int64_t steadyNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// How long after a browser's last image request frames are still kept for it.
+constexpr auto kWantedFor = std::chrono::seconds(2);
+constexpr int kJpegQuality = 80;
+constexpr double kTintWeight = 0.45;
+
+cv::Mat tinted(const cv::Mat& image, const SilhouetteMask* mask) {
+  cv::Mat bgr;
+  if (image.channels() == 1)
+    cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
+  else
+    bgr = image.clone();
+  if (!mask || mask->width() != bgr.cols || mask->height() != bgr.rows) return bgr;
+  const cv::Scalar tint(CameraImages::kTintBgr[0], CameraImages::kTintBgr[1],
+                        CameraImages::kTintBgr[2]);
+  cv::Mat blended;
+  cv::addWeighted(bgr, 1 - kTintWeight, cv::Mat(bgr.size(), CV_8UC3, tint), kTintWeight, 0,
+                  blended);
+  blended.copyTo(bgr, mask->toMat());
+  return bgr;
+}
+
+}  // namespace
+
+CameraImages::CameraImages(std::size_t cameras, std::chrono::milliseconds min_interval)
+    : min_interval_(min_interval), images_(cameras), masks_(cameras) {
+  for (std::size_t c = 0; c < cameras; ++c) cache_.push_back(std::make_unique<Cached>());
+}
+
+void CameraImages::keep(const FrameSet& set, const std::vector<SilhouetteMask>& masks) {
+  if (steadyNowNs() > wanted_until_ns_.load(std::memory_order_relaxed)) return;
+  const auto now = std::chrono::steady_clock::now();
+  std::lock_guard lock(mutex_);
+  if (now - kept_ < min_interval_ / 2) return;
+  kept_ = now;
+  set_sequence_ = set.sequence;
+  for (std::size_t c = 0; c < images_.size(); ++c) {
+    if (c < set.frames.size() && set.frames[c]) images_[c] = set.frames[c]->image;
+    if (c < masks.size() && masks[c].width() > 0)
+      masks_[c] = std::make_shared<const SilhouetteMask>(masks[c]);
+  }
+}
+
+std::optional<std::string> CameraImages::jpeg(std::size_t camera) {
+  if (camera >= cache_.size()) return std::nullopt;
+  wanted_until_ns_.store(
+      steadyNowNs() + std::chrono::duration_cast<std::chrono::nanoseconds>(kWantedFor).count(),
+      std::memory_order_relaxed);
+  Cached& cached = *cache_[camera];
+  // One encoder per camera at a time; the others wait for it and get its result.
+  std::lock_guard encoding(cached.mutex);
+  const auto now = std::chrono::steady_clock::now();
+  if (!cached.jpeg.empty() && now - cached.encoded < min_interval_) return cached.jpeg;
+  cv::Mat image;
+  std::shared_ptr<const SilhouetteMask> mask;
+  uint64_t sequence = 0;
+  {
+    std::lock_guard lock(mutex_);
+    image = images_[camera];
+    mask = masks_[camera];
+    sequence = set_sequence_;
+  }
+  if (image.empty()) {
+    if (cached.jpeg.empty()) return std::nullopt;
+    return cached.jpeg;
+  }
+  if (sequence != cached.set_sequence || cached.jpeg.empty()) {
+    std::vector<unsigned char> bytes;
+    cv::imencode(".jpg", tinted(image, mask.get()), bytes, {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
+    cached.jpeg.assign(bytes.begin(), bytes.end());
+    cached.set_sequence = sequence;
+  }
+  cached.encoded = now;
+  return cached.jpeg;
+}
+
+}  // namespace mocap

@@ -1,0 +1,84 @@
+// The web view the daemon serves (loopback by default): a page showing each camera's image with
+// its silhouette and the tracked model's outline, a 3D view (three.js), the status and the
+// controls. One cpp-httplib server with its own fixed thread pool, started and stopped by
+// MocapServer. Its controls call the pipeline's components as the gRPC service does, behind the
+// same bearer token.
+//
+// A slow browser loses poses and images, never slows the tracker or the gRPC subscribers: the
+// view is one publisher subscriber holding only the newest pose (latest wins), each event-stream
+// client waits for a newer one on its own server thread, and images are encoded on the server's
+// threads from the newest frame set, at most 5 times a second per camera.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "drivers/status.h"
+#include "server/config.h"
+#include "server/pipeline.h"
+#include "server/pose_publisher.h"
+#include "server/web_images.h"
+#include "tracker/model/camera.h"
+
+namespace httplib {
+class Server;
+class Request;
+class Response;
+}  // namespace httplib
+
+namespace mocap {
+
+class WebView final : public PoseSubscriber {
+ public:
+  // Everything is borrowed and must outlive the view.
+  WebView(const ServerConfig& config, Pipeline& pipeline, const Rig& rig,
+          PosePublisher& publisher);
+  ~WebView() override;
+  WebView(const WebView&) = delete;
+  WebView& operator=(const WebView&) = delete;
+
+  // Binds config.web.listen and starts serving; the error names the address.
+  Status start();
+  // Ends the event streams, stops the server and joins its threads. Idempotent.
+  void stop();
+  int port() const { return port_; }
+  // For Pipeline::setMaskObserver: keeps the newest images for the page.
+  Pipeline::MaskObserver maskObserver();
+
+  // PoseSubscriber: the publisher thread offers each pose; it only replaces the newest one.
+  void offer(const SharedPose& pose) override;
+  void finish() override;
+
+ private:
+  void addRoutes();
+  void addControlRoutes();
+  // An event stream of the newest poses, for one browser.
+  void streamPoses(httplib::Response& response);
+  // False (and the response filled with 401) when a token is configured and the request does
+  // not carry it ("Authorization: Bearer <token>").
+  bool authorized(const httplib::Request& request, httplib::Response& response) const;
+
+  const ServerConfig& config_;
+  Pipeline& pipeline_;
+  const Rig& rig_;
+  PosePublisher& publisher_;
+  CameraImages images_;
+  std::unique_ptr<httplib::Server> server_;
+  std::thread listener_;
+  int port_ = 0;
+  bool subscribed_ = false;
+
+  // The newest pose and its count, for the event streams (latest wins).
+  mutable std::mutex pose_mutex_;
+  std::condition_variable pose_changed_;
+  SharedPose newest_pose_;
+  uint64_t poses_offered_ = 0;
+  bool closing_ = false;
+  int stream_clients_ = 0;
+};
+
+}  // namespace mocap

@@ -1,0 +1,346 @@
+// The web view served by a daemon on the fake hand scene, on loopback: the page and three.js, the
+// status, each camera's JPEG, the pose event stream, refused paths, the bearer token, the view
+// turned off, and the page in headless Chromium (when installed), whose screenshot must show the
+// tracked outline over the subject and a rendered 3D view.
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "drivers/builtin_drivers.h"
+#include "server/mocap_server.h"
+#include "server/server_test_support.h"
+
+// After Eigen (through the server's headers): <resolv.h>, which httplib includes, defines `_res`,
+// a name Eigen's templates use.
+#include <arpa/inet.h>
+#include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+namespace mocap {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr const char* kToken = "web-view-test-token-0123456789";
+
+std::unique_ptr<MocapServer> startServer(ServerConfig config) {
+  config.web.listen = "127.0.0.1:0";
+  Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+  EXPECT_TRUE(server.ok()) << server.error();
+  if (!server.ok()) return nullptr;
+  EXPECT_TRUE(server.value()->start().ok());
+  return std::move(server.value());
+}
+
+// The whole answer to `request` sent as is on a new connection (no client-side normalizing).
+std::string rawRequest(int port, const std::string& request) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  std::string answer;
+  if (connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) {
+    (void)!write(fd, request.data(), request.size());
+    char buffer[4096];
+    ssize_t n = 0;
+    while ((n = read(fd, buffer, sizeof buffer)) > 0) answer.append(buffer, n);
+  }
+  close(fd);
+  return answer;
+}
+
+class WebViewTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { registerBuiltinDrivers(DriverRegistry::instance()); }
+
+  void start(ServerConfig config = test::sceneConfig()) {
+    server_ = startServer(std::move(config));
+    ASSERT_TRUE(server_);
+    ASSERT_GT(server_->webPort(), 0);
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->webPort());
+    client_->set_read_timeout(10, 0);
+  }
+
+  // Camera `camera`'s JPEG, asked for until the daemon has one (the first request starts the
+  // keeping of frames).
+  httplib::Result cameraImage(int camera, const httplib::Headers& headers = {}) {
+    const std::string path = "/api/camera/" + std::to_string(camera) + ".jpg";
+    httplib::Result result = client_->Get(path.c_str(), headers);
+    for (int i = 0; i < 50 && result && result->status == 503; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      result = client_->Get(path.c_str(), headers);
+    }
+    return result;
+  }
+
+  std::unique_ptr<MocapServer> server_;
+  std::unique_ptr<httplib::Client> client_;
+};
+
+TEST_F(WebViewTest, ServesThePageAndThreeJs) {
+  start();
+  auto page = client_->Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("/three/three.min.js"), std::string::npos);
+  auto script = client_->Get("/view.js");
+  ASSERT_TRUE(script);
+  EXPECT_EQ(script->status, 200);
+  EXPECT_NE(script->body.find("EventSource"), std::string::npos);
+  auto three = client_->Get("/three/three.min.js");
+  ASSERT_TRUE(three);
+  EXPECT_EQ(three->status, 200);
+  EXPECT_NE(three->body.find("WebGLRenderer"), std::string::npos);
+  auto orbit = client_->Get("/three/OrbitControls.js");
+  ASSERT_TRUE(orbit);
+  EXPECT_EQ(orbit->status, 200);
+  EXPECT_NE(orbit->body.find("THREE.OrbitControls"), std::string::npos);
+}
+
+TEST_F(WebViewTest, StatusAndScene) {
+  start();
+  auto status = client_->Get("/api/status");
+  ASSERT_TRUE(status);
+  ASSERT_EQ(status->status, 200);
+  const json parsed = json::parse(status->body);
+  EXPECT_EQ(parsed["mode"], "live");
+  EXPECT_EQ(parsed["cameras"].size(), 2u);
+  EXPECT_FALSE(parsed["token_required"].get<bool>());
+  auto scene = client_->Get("/api/scene");
+  ASSERT_TRUE(scene);
+  const json cameras = json::parse(scene->body)["cameras"];
+  ASSERT_EQ(cameras.size(), 2u);
+  EXPECT_EQ(cameras[0]["width"], 780);
+  EXPECT_EQ(cameras[0]["corner_rays"].size(), 4u);
+}
+
+TEST_F(WebViewTest, AJpegPerCameraOfTheCameraSize) {
+  start();
+  for (int camera = 0; camera < 2; ++camera) {
+    auto image = cameraImage(camera);
+    ASSERT_TRUE(image);
+    ASSERT_EQ(image->status, 200);
+    EXPECT_EQ(image->get_header_value("Content-Type"), "image/jpeg");
+    const cv::Mat decoded = cv::imdecode(
+        cv::Mat(1, static_cast<int>(image->body.size()), CV_8U, image->body.data()),
+        cv::IMREAD_COLOR);
+    ASSERT_FALSE(decoded.empty());
+    EXPECT_EQ(decoded.cols, 780);
+    EXPECT_EQ(decoded.rows, 580);
+  }
+  auto missing = client_->Get("/api/camera/2.jpg");
+  ASSERT_TRUE(missing);
+  EXPECT_EQ(missing->status, 404);
+}
+
+TEST_F(WebViewTest, EventStreamDeliversPoses) {
+  start();
+  std::string received;
+  int events = 0;
+  auto result = client_->Get("/api/poses", [&](const char* data, std::size_t length) {
+    received.append(data, length);
+    std::size_t end;
+    while ((end = received.find("\n\n")) != std::string::npos) {
+      const std::string event = received.substr(0, end);
+      received.erase(0, end + 2);
+      if (event.rfind("data: ", 0) != 0) continue;
+      const json pose = json::parse(event.substr(6));
+      EXPECT_FALSE(pose["points"].empty());
+      EXPECT_FALSE(pose["lines"].empty());
+      EXPECT_EQ(pose["projected"].size(), 2u);
+      EXPECT_EQ(pose["projected"][0].size(), pose["points"].size());
+      ++events;
+    }
+    return events < 5;
+  });
+  EXPECT_EQ(events, 5);
+}
+
+TEST_F(WebViewTest, UnknownPathsAndTraversalAreRefused) {
+  start();
+  for (const char* path : {"/nope", "/api/nope", "/three/three.js", "/web/index.html"}) {
+    auto result = client_->Get(path);
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->status, 404) << path;
+  }
+  for (const std::string path :
+       {"/../../../../etc/passwd", "/three/../../../../../etc/passwd",
+        "/%2e%2e/%2e%2e/%2e%2e/etc/passwd", "/three/%2e%2e/%2e%2e/%2e%2e/%2e%2e/etc/passwd",
+        "/three/..%2f..%2f..%2fbuild/three.min.js", "/three/../build/three.min.js"}) {
+    const std::string answer =
+        rawRequest(server_->webPort(), "GET " + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+    ASSERT_FALSE(answer.empty()) << path;
+    EXPECT_EQ(answer.find("HTTP/1.1 200"), std::string::npos) << path << ": " << answer.substr(0, 80);
+    EXPECT_EQ(answer.find("root:"), std::string::npos) << path;
+  }
+}
+
+TEST_F(WebViewTest, TheTokenIsRequiredWhenConfigured) {
+  ServerConfig config = test::sceneConfig();
+  config.bearer_token = kToken;
+  start(config);
+  EXPECT_EQ(client_->Get("/")->status, 200);  // the page itself asks for the token
+  EXPECT_EQ(client_->Post("/api/reacquire")->status, 401);
+  EXPECT_EQ(client_->Post("/api/recording/start")->status, 401);
+  EXPECT_EQ(client_->Post("/api/background")->status, 401);
+  EXPECT_EQ(client_->Get("/api/status")->status, 401);
+  EXPECT_EQ(client_->Get("/api/camera/0.jpg")->status, 401);
+  const httplib::Headers wrong = {{"Authorization", "Bearer not-the-token-at-all-000"}};
+  EXPECT_EQ(client_->Post("/api/reacquire", wrong, "", "text/plain")->status, 401);
+  const httplib::Headers right = {{"Authorization", std::string("Bearer ") + kToken}};
+  // The hand's root cannot be placed: refused by the pipeline, past the token.
+  EXPECT_EQ(client_->Post("/api/reacquire", right, "", "text/plain")->status, 409);
+  EXPECT_EQ(client_->Get("/api/status", right)->status, 200);
+  EXPECT_EQ(client_->Get((std::string("/api/status?token=") + kToken).c_str())->status, 200);
+  auto image = cameraImage(0, right);
+  ASSERT_TRUE(image);
+  EXPECT_EQ(image->status, 200);
+}
+
+TEST_F(WebViewTest, ControlsCallThePipeline) {
+  ServerConfig config = test::sceneConfig();
+  const fs::path root = fs::temp_directory_path() / ("mocap_web_" + std::to_string(getpid()));
+  fs::remove_all(root);
+  fs::create_directories(root);
+  config.recording_directory = root.string();
+  start(config);
+  EXPECT_EQ(client_->Post("/api/background?frames=0")->status, 400);
+  EXPECT_EQ(client_->Post("/api/fit-body?frame_sets=999")->status, 400);
+  EXPECT_EQ(client_->Post("/api/recording/start?path=../out")->status, 400);  // ".." refused
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // every camera has sent a frame
+  auto started = client_->Post("/api/recording/start?path=web_session");
+  ASSERT_TRUE(started);
+  EXPECT_EQ(started->status, 200) << started->body;
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  auto stopped = client_->Post("/api/recording/stop");
+  ASSERT_TRUE(stopped);
+  EXPECT_EQ(stopped->status, 200) << stopped->body;
+  EXPECT_GT(json::parse(stopped->body)["frame_sets"].get<int>(), 0);
+  EXPECT_TRUE(fs::exists(root / "web_session"));
+  EXPECT_EQ(client_->Post("/api/recording/stop")->status, 409);
+  server_->shutdown();
+  fs::remove_all(root);
+}
+
+TEST_F(WebViewTest, DisabledServesNothing) {
+  // A port free now, which the daemon would take if the view were on.
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof address;
+  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  const int port = ntohs(address.sin_port);
+  close(fd);
+  ServerConfig config = parseConfig(std::string(kDefaultConfigYaml) + "web: {enabled: false, listen: 127.0.0.1:" +
+                                        std::to_string(port) + "}\n",
+                                    "<test>", ".");
+  config.listen = "127.0.0.1:0";
+  config.log_level = LogLevel::kWarning;
+  EXPECT_FALSE(config.web.enabled);
+  Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+  ASSERT_TRUE(server.ok()) << server.error();
+  ASSERT_TRUE(server.value()->start().ok());
+  EXPECT_EQ(server.value()->webPort(), 0);
+  httplib::Client client("127.0.0.1", port);
+  client.set_connection_timeout(1, 0);
+  EXPECT_FALSE(client.Get("/"));
+}
+
+// Headless Chromium, as Debian ships it; empty when not installed.
+std::string chromium() {
+  for (const char* path : {"/usr/bin/chromium", "/usr/bin/chromium-browser"})
+    if (fs::exists(path)) return path;
+  return "";
+}
+
+// Pure enough magenta: the outline the page draws over the camera images.
+bool isOutline(const cv::Vec3b& bgr) { return bgr[2] > 170 && bgr[0] > 170 && bgr[1] < 100; }
+// The silhouette's green tint (CameraImages::kTintBgr over the image).
+bool isSilhouette(const cv::Vec3b& bgr) {
+  return bgr[1] > 60 && bgr[1] - std::max(bgr[0], bgr[2]) > 40;
+}
+
+TEST_F(WebViewTest, ChromiumShowsTheOutlineOverTheSubjectAndThe3dView) {
+  const std::string browser = chromium();
+  if (browser.empty()) GTEST_SKIP() << "chromium is not installed (deploy/install-deps)";
+  start();
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const fs::path dir = fs::temp_directory_path() / ("mocap_web_chromium_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "profile");
+  const fs::path shot = dir / "web_view.png";
+  // Software WebGL: SwiftShader, which headless Chromium allows with the unsafe flag.
+  const std::string command =
+      "timeout 120 " + browser +
+      " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run"
+      " --disable-background-networking --disable-component-update --disable-sync"
+      " --use-gl=angle --use-angle=swiftshader --enable-unsafe-swiftshader"
+      " --user-data-dir=" + (dir / "profile").string() + " --screenshot=" + shot.string() +
+      " --window-size=1280,900 --virtual-time-budget=6000 http://127.0.0.1:" +
+      std::to_string(server_->webPort()) + "/ >" + (dir / "chromium.log").string() + " 2>&1";
+  EXPECT_EQ(std::system(command.c_str()), 0) << command;
+  const cv::Mat image = cv::imread(shot.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty()) << "no screenshot; see " << (dir / "chromium.log");
+  if (const char* keep = std::getenv("MOCAP_WEB_SCREENSHOT")) fs::copy_file(shot, keep, fs::copy_options::overwrite_existing);
+
+  // The camera images fill the left 780 pixels: the outline must be there and lie on the tinted
+  // silhouette (within a few pixels, the width of the drawn line).
+  constexpr int kNear = 6;
+  int outline = 0, over_subject = 0;
+  for (int y = kNear; y < 420; ++y) {
+    for (int x = kNear; x < 780; ++x) {
+      if (!isOutline(image.at<cv::Vec3b>(y, x))) continue;
+      ++outline;
+      bool near = false;
+      for (int dy = -kNear; dy <= kNear && !near; ++dy)
+        for (int dx = -kNear; dx <= kNear && !near; ++dx)
+          near = isSilhouette(image.at<cv::Vec3b>(y + dy, x + dx));
+      over_subject += near;
+    }
+  }
+  EXPECT_GT(outline, 50);
+  EXPECT_GT(over_subject, 0.8 * outline) << over_subject << " of " << outline;
+
+  // The 3D view (right of the cameras) rendered something other than its clear colour.
+  const cv::Vec3b clear(0x28, 0x24, 0x20);
+  int drawn = 0, black = 0;
+  for (int y = 60; y < 420; ++y) {
+    for (int x = 820; x < 1240; ++x) {
+      const cv::Vec3b pixel = image.at<cv::Vec3b>(y, x);
+      drawn += cv::norm(cv::Vec3i(pixel) - cv::Vec3i(clear)) > 40;
+      black += pixel == cv::Vec3b(0, 0, 0);
+    }
+  }
+  EXPECT_GT(drawn, 300) << "the WebGL canvas looks blank";
+  EXPECT_LT(black, 420 * 360 / 2) << "no WebGL: the canvas stayed black";
+  fs::remove_all(dir);
+}
+
+TEST(WebConfigTest, KeysAreChecked) {
+  const ServerConfig plain = parseConfig(kDefaultConfigYaml, "<test>", ".");
+  EXPECT_TRUE(plain.web.enabled);
+  EXPECT_EQ(plain.web.listen, "127.0.0.1:8080");
+  const ServerConfig moved =
+      parseConfig(std::string(kDefaultConfigYaml) + "web: {listen: 127.0.0.1:9000}\n", "<t>", ".");
+  EXPECT_EQ(moved.web.listen, "127.0.0.1:9000");
+  EXPECT_THROW(parseConfig(std::string(kDefaultConfigYaml) + "web: {port: 9000}\n", "<t>", "."),
+               ConfigError);
+  EXPECT_THROW(parseConfig(std::string(kDefaultConfigYaml) + "web: {listen: nowhere}\n", "<t>", "."),
+               ConfigError);
+}
+
+}  // namespace
+}  // namespace mocap
