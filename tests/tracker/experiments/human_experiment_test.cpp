@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -226,6 +227,74 @@ TEST(HumanExperiment, TheTrackedBodyIsTheSubjectsTheFilesOrOneFittedToTheSubject
     FAIL() << "expected invalid_argument";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("--tracked-body"));
+  }
+}
+
+// The scenario switch: product sets the product path's flags, each overridden by its own flag;
+// lab (the default) changes nothing and only names itself.
+TEST(HumanExperiment, TheScenarioSwitchSetsTheProductPath) {
+  const auto parse = [](std::vector<std::string> flags) {
+    flags.insert(flags.begin(), {"mocap-experiment", "human", "--motion", kWalk});
+    std::vector<char*> argv;
+    for (std::string& flag : flags) argv.push_back(flag.data());
+    return parseHumanCommand(static_cast<int>(argv.size()), argv.data());
+  };
+  const HumanExperimentConfig lab = parse({});
+  const HumanExperimentConfig defaults;
+  EXPECT_EQ(lab.tracked_body, defaults.tracked_body);
+  EXPECT_EQ(lab.start_offset, defaults.start_offset);
+  EXPECT_EQ(lab.silhouettes, "true");
+  EXPECT_FALSE(lab.subject_seed);
+  EXPECT_FALSE(lab.reportsProductPath());  // the output of earlier runs stays as it was
+  EXPECT_EQ(parse({"--scenario", "lab"}).scenario, "lab");
+  const HumanExperimentConfig product = parse({"--scenario", "product", "--cameras", "3"});
+  EXPECT_EQ(product.scenario, "product");
+  EXPECT_EQ(product.tracked_body, "fit");
+  EXPECT_EQ(product.start_offset, "acquire");
+  EXPECT_EQ(product.silhouettes, "extracted");
+  EXPECT_EQ(product.subject_seed, kProductSubjectSeed);
+  EXPECT_EQ(product.cameras, 3);  // given explicitly
+  const HumanExperimentConfig other =
+      parse({"--scenario", "product", "--subject-seed", "7", "--silhouettes", "true",
+             "--tracked-body", "default", "--motion-units", "cm"});
+  EXPECT_EQ(other.subject_seed, 7u);
+  EXPECT_EQ(other.silhouettes, "true");
+  EXPECT_EQ(other.tracked_body, "default");
+  EXPECT_EQ(other.start_offset, "acquire");
+  EXPECT_EQ(other.bvh.units, BvhUnits::kCentimetres);
+  EXPECT_THROW(parse({"--scenario", "studio"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--motion-units", "furlong"}), std::invalid_argument);
+}
+
+// The product path on a short run: a subject unlike the model, the shipped body fitted from the
+// cameras, found by acquisition, on silhouettes extracted against a learned background. The
+// subject must be found and kept in view: acquired once, a pose every frame, the neck (the
+// trunk's top, which a heading flip or a lost leg leaves in place) near the subject's. Bound: on
+// development subject seeds 101-105 (seed 1, these settings) the neck's mean error was 32-51 mm;
+// 80 mm leaves room for another subject. The whole body is not yet kept on most of those seeds
+// (3 of 5 never lock: heading flips and lost legs), so this does not ask for a lock.
+TEST(HumanExperiment, TheProductPathFindsAndKeepsTheSubject) {
+  REQUIRE_SHARED_FILE(kWalk);
+  HumanExperimentConfig config = walk(30);
+  config.scenario = "product";
+  config.tracked_body = "fit";
+  config.start_offset = "acquire";
+  config.silhouettes = "extracted";
+  config.subject_seed = 106;
+  config.evaluations = 800;
+  const nlohmann::json out = runHumanExperiment(config);
+  EXPECT_EQ(out["scenario"], "product");
+  EXPECT_EQ(out["subject_seed"], 106);
+  EXPECT_EQ(out["silhouettes"], "extracted");
+  EXPECT_EQ(out["tracked_body"], "fit");
+  ASSERT_TRUE(out.contains("subject_proportions")) << out.dump();
+  ASSERT_TRUE(out.contains("body_proportions")) << out.dump();
+  EXPECT_EQ(out["acquisitions"], 1) << out.dump();
+  EXPECT_EQ(out["frames_without_pose"], 0) << out.dump();
+  EXPECT_LT(out["per_joint_mm"]["neck"].get<double>(), 80.0) << out.dump();
+  EXPECT_LE(out["longest_loss_frames"].get<int>(), out["lost_frames"].get<int>());
+  if (!out["frames_to_first_lock"].is_null()) {
+    EXPECT_LT(out["frames_to_first_lock"].get<int>(), 30);
   }
 }
 
