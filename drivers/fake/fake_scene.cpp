@@ -1,15 +1,18 @@
-// The synthetic scene: rig choice, background texture, body painting, noise, ground truth.
+// The synthetic scene: rig choice, background texture, body or person painting, noise, ground
+// truth.
 #include "drivers/fake/fake_scene.h"
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "drivers/clock.h"
-#include "tracker/search/body_size.h"
 #include "tracker/model/builtin_models.h"
+#include "tracker/motion/retarget.h"
+#include "tracker/search/body_size.h"
 
 namespace mocap {
 namespace {
@@ -45,6 +48,20 @@ double modelExtent(const BodyModel& model) {
     largest_shape = std::max({largest_shape, s.shape.length, 2 * s.shape.radii.maxCoeff()});
   }
   return extent + largest_shape;
+}
+
+// `model` with the subject's bones (fitModelToRestPoints), standing where the subject stands: its
+// pelvis at the subject's at the neutral pose (the fit keeps the model's ankle height; the
+// subject has its own).
+BodyModel truthBodyOf(const BodyModel& model, const Subject& subject) {
+  BodyModel body = fitModelToRestPoints(model, modelPointsFromJoints(model, subject.rest()));
+  KinematicsData kinematics(body);
+  forwardKinematics(body, kinematics, body.neutralPose());
+  const int pelvis = body.pointIndex(kSubjectJointNames[kPelvis]);
+  const Eigen::Vector3d standing = pointPositions(body, kinematics)[pelvis];
+  // The root's offset is in the world frame.
+  body.segments[0].offset += subject.rest()[kPelvis] - standing;
+  return body;
 }
 
 }  // namespace
@@ -94,6 +111,21 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
       const FitStance standing = fitPoseAt(model, scene->motion_->front());
       scene->fit_pose_ = standing.pose;
       scene->fit_turn_dof_ = standing.turn_dof;
+    }
+    if (o.subject) {
+      const BodyModel& model = *scene->model_;
+      std::shared_ptr<const Subject> subject;
+      try {
+        subject = std::make_shared<const Subject>(*o.subject,
+                                                  subjectJointsAt(model, model.neutralPose()));
+      } catch (const std::invalid_argument& e) {
+        return Status::Error("fake scene: a subject needs a body model with the human's joints (" +
+                             model.name + "): " + e.what());
+      }
+      scene->truth_body_ = std::make_shared<const BodyModel>(truthBodyOf(model, *subject));
+      scene->subject_ = std::move(subject);
+    } else {
+      scene->truth_body_ = scene->model_;
     }
     if (o.rig.empty()) {
       if (o.cameras <= 0) return Status::Error("fake scene: cameras must be positive");
@@ -183,17 +215,54 @@ GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
     return truth;
   }
   std::lock_guard<std::mutex> lock(truth_mutex_);
+  if (subject_) {
+    if (!truth_scratch_) truth_scratch_ = std::make_unique<FakeRenderScratch>(*model_, 1);
+    FakeRenderScratch& scratch = *truth_scratch_;
+    poseSubject(sequence, scratch);
+    truth.silhouettes.resize(rig_.size());
+    for (std::size_t c = 0; c < rig_.size(); ++c)
+      scratch.subject_rasterizer.renderSilhouette(scratch.posed, rig_[c], truth.silhouettes[c]);
+    truth.points = modelPointsFromJoints(*model_, scratch.posed.joints);
+    return truth;
+  }
   if (!truth_renderer_) truth_renderer_ = std::make_unique<SceneRenderer>(*model_, rig_);
   truth_renderer_->renderSilhouettes(truth.q, truth.silhouettes);
+  KinematicsData kinematics(*model_);
+  forwardKinematics(*model_, kinematics, truth.q);
+  truth.points = pointPositions(*model_, kinematics);
   return truth;
+}
+
+void FakeScene::poseSubject(uint64_t sequence, FakeRenderScratch& scratch) const {
+  forwardKinematics(*model_, scratch.kinematics, truePose(sequence));
+  subject_->pose(subjectJointsFromPoints(*model_, pointPositions(*model_, scratch.kinematics)),
+                 scratch.posed);
 }
 
 void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch,
                        cv::Mat& image) const {
   const CameraModel& cam = rig_[camera];
   backgrounds_[camera].copyTo(image);
-  if (subjectInView(sequence)) paintSubject(cam, sequence, scratch, image);
+  if (subjectInView(sequence)) {
+    if (subject_)
+      paintPerson(cam, sequence, scratch, image);
+    else
+      paintSubject(cam, sequence, scratch, image);
+  }
   addNoise(camera, sequence, image);
+}
+
+void FakeScene::paintPerson(const CameraModel& cam, uint64_t sequence, FakeRenderScratch& scratch,
+                            cv::Mat& image) const {
+  poseSubject(sequence, scratch);
+  PersonLayer& layer = scratch.layer;
+  scratch.subject_rasterizer.renderLayer(scratch.posed, cam, layer);
+  if (!options_.gray) {
+    layer.colour.copyTo(image, layer.mask);
+    return;
+  }
+  cv::cvtColor(layer.colour, scratch.gray_layer, cv::COLOR_BGR2GRAY);
+  scratch.gray_layer.copyTo(image, layer.mask);
 }
 
 void FakeScene::paintSubject(const CameraModel& cam, uint64_t sequence, FakeRenderScratch& scratch,

@@ -1,6 +1,7 @@
 // The fake driver's synthetic scene: a body model moving along a motion, seen by calibrated virtual
-// cameras. Renders each camera's image (textured background, body painted a shade per segment,
-// sensor noise) and answers ground-truth queries (DOF vector and silhouettes of any frame).
+// cameras. Renders each camera's image (textured background, the body painted a shade per segment
+// or a simulated person posed by it, sensor noise) and answers ground-truth queries (DOF vector,
+// joints and silhouettes of any frame).
 #pragma once
 
 #include <chrono>
@@ -18,7 +19,10 @@
 #include "tracker/model/kinematics.h"
 #include "tracker/motion/motion.h"
 #include "tracker/likelihood/raster.h"
+#include "tracker/sim/person_layer.h"
 #include "tracker/sim/scene.h"
+#include "tracker/sim/subject.h"
+#include "tracker/sim/subject_render.h"
 
 namespace mocap {
 
@@ -72,6 +76,11 @@ struct FakeSceneOptions {
   // stands and faces, once the turns are over) replaced by the fit pose's. Needs a model with a
   // fit_pose.
   uint64_t fit_pose_frames = 0;
+  // Set: the cameras see a person with these proportions and clothes (tracker/sim/subject.h), not
+  // the model: the subject is posed by the model's joints at each true pose, and the truth
+  // (silhouettes, joints) is the subject's. Needs a model with the human's points. Unset: the
+  // model itself, each segment a flat shade.
+  std::optional<SubjectParams> subject;
   FakeFaults faults;
 };
 
@@ -86,6 +95,9 @@ struct GroundTruth {
   std::size_t motion_frame = 0;      // which frame of the motion was shown
   Eigen::VectorXd q;                 // the DOF vector; empty while the scene is empty
   std::vector<cv::Mat> silhouettes;  // per camera, CV_8UC1, 255 where the body is
+  // The true joints as the model's points (model point order, world metres): what a tracked pose
+  // is scored against. The model's points at q, or the subject's joints. Empty while empty.
+  std::vector<Eigen::Vector3d> points;
 };
 
 // Per-thread render scratch: one per camera thread.
@@ -94,6 +106,11 @@ struct FakeRenderScratch {
   KinematicsData kinematics;
   ShapeRasterizer rasterizer;
   std::vector<RowSpan> spans;
+  // With a subject (FakeSceneOptions::subject):
+  SubjectRasterizer subject_rasterizer;
+  PosedSubject posed;
+  PersonLayer layer;
+  cv::Mat gray_layer;  // the layer's colours in gray, for gray scenes
 };
 
 // Shared by every camera opened from one FakeDriver. Immutable after create() except for the
@@ -130,6 +147,14 @@ class FakeScene {
 
   // The ground truth of frame `sequence`. Thread-safe (serialized); renders on each call.
   GroundTruth groundTruth(uint64_t sequence) const;
+  // The subject the cameras see in place of the model, if any (FakeSceneOptions::subject).
+  const Subject* subject() const { return subject_.get(); }
+  // The body whose points at truePose() are the true joints: the model itself, or with a subject
+  // the model refitted to the subject's rest joints (fitModelToRestPoints), which has the model's
+  // DOFs, so a truth carried as DOFs (scoring, recordings) stays the subject's. It matches the
+  // subject's joints to under a centimetre while the pelvis stays within a few centimetres of its
+  // standing height, as a person's does (the subject scales the pelvis height, the body shifts it).
+  std::shared_ptr<const BodyModel> truthBody() const { return truth_body_; }
 
   // Renders camera `camera`'s image of frame `sequence` into `image` (reallocated only if needed).
   // Deterministic: the same (camera, sequence) gives the same pixels. Thread-safe with distinct
@@ -148,6 +173,10 @@ class FakeScene {
   uint64_t hash(int camera, uint64_t sequence, uint64_t salt) const;
   void paintSubject(const CameraModel& camera, uint64_t sequence, FakeRenderScratch& scratch,
                     cv::Mat& image) const;
+  void paintPerson(const CameraModel& camera, uint64_t sequence, FakeRenderScratch& scratch,
+                   cv::Mat& image) const;
+  // Poses scratch.posed as the subject stands in frame `sequence` (in view).
+  void poseSubject(uint64_t sequence, FakeRenderScratch& scratch) const;
   void addNoise(int camera, uint64_t sequence, cv::Mat& image) const;
 
   FakeSceneOptions options_;
@@ -162,11 +191,14 @@ class FakeScene {
   // per-frame offset.
   std::vector<uint8_t> noise_up_, noise_down_;
   std::vector<cv::Vec3b> segment_colors_;
+  std::shared_ptr<const Subject> subject_;  // shared by the camera threads (const)
+  std::shared_ptr<const BodyModel> truth_body_;
 
   std::mutex epoch_mutex_;
   std::optional<int64_t> epoch_ns_;
   mutable std::mutex truth_mutex_;
   mutable std::unique_ptr<SceneRenderer> truth_renderer_;  // built on the first query
+  mutable std::unique_ptr<FakeRenderScratch> truth_scratch_;  // with a subject, likewise
 };
 
 }  // namespace mocap

@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include "drivers/fake/fake_driver.h"
-#include "tracker/motion/bvh.h"
 #include "tracker/motion/retarget.h"
 
 namespace mocap {
@@ -25,13 +24,15 @@ FakeDriverOptions fakeDriverOptions(const FakeSceneSetupOptions& setup) {
   options.scene.empty_frames = static_cast<uint64_t>(std::llround(setup.empty_seconds * first.fps));
   options.scene.fit_pose_frames =
       static_cast<uint64_t>(std::llround(setup.fit_pose_seconds * first.fps));
+  if (setup.subject_seed) options.scene.subject = drawSubjectParams(*setup.subject_seed);
   return options;
 }
 
 }  // namespace
 
-SceneSubject loadSceneSubject(const std::string& bvh_file, const BodyModel& model, double fps) {
-  const Bvh bvh = loadBvh(bvh_file);
+SceneSubject loadSceneSubject(const std::string& bvh_file, const BodyModel& model, double fps,
+                              const BvhLoadOptions& load) {
+  const Bvh bvh = loadBvh(bvh_file, load);
   auto fitted = std::make_shared<const BodyModel>(fitModelToBvh(model, bvh.skeleton));
   auto motion =
       std::make_shared<const Motion>(retargetBvh(*fitted, bvh.skeleton, bvh.motion, fps).motion);

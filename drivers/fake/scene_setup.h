@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "drivers/status.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/motion.h"
 #include "tracker/vision/background_model.h"
 
@@ -24,9 +26,11 @@ struct SceneSubject {
   std::shared_ptr<const Motion> motion;   // the recording retargeted onto `body`, at the fps
 };
 
-// Loads the BVH file, fits `model` to its skeleton (docs/human.md) and retargets its motion onto
-// the fitted body at `fps`. Throws std::exception with the loader's message.
-SceneSubject loadSceneSubject(const std::string& bvh_file, const BodyModel& model, double fps);
+// Loads the BVH file (its units and joint map as `load` says), fits `model` to its skeleton
+// (docs/human.md) and retargets its motion onto the fitted body at `fps`. Throws std::exception
+// with the loader's message.
+SceneSubject loadSceneSubject(const std::string& bvh_file, const BodyModel& model, double fps,
+                              const BvhLoadOptions& load = {});
 
 struct FakeSceneSetupOptions {
   // Every camera of the scene, all of driver "fake"; the first one's size, rate and pixel format
@@ -38,6 +42,9 @@ struct FakeSceneSetupOptions {
   const BodyModel* subject = nullptr;    // null: the scene's default body
   const Rig* rig = nullptr;              // null: the scene's default rig
   std::shared_ptr<const Motion> motion;  // null: the scene's generated motion
+  // Set: the cameras see the simulated person drawSubjectParams(seed) (tracker/sim/subject.h)
+  // moving as the body does, not the body itself (FakeSceneOptions::subject).
+  std::optional<uint64_t> subject_seed;
 };
 
 struct FakeSceneSetup {

@@ -1,5 +1,7 @@
-// The fake driver's scene cameras: pacing, ground truth, fault knobs, enumeration, registration.
+// The fake driver's scene cameras: pacing, ground truth, a simulated person in place of the body,
+// fault knobs, enumeration, registration.
 #include <chrono>
+#include <cmath>
 #include <optional>
 #include <set>
 
@@ -12,6 +14,7 @@
 #include "drivers/fake/fake_driver.h"
 #include "tests/drivers/frame_collector.h"
 #include "tracker/model/builtin_models.h"
+#include "tracker/sim/scene.h"
 
 namespace mocap {
 namespace {
@@ -222,6 +225,128 @@ TEST(FakeSceneCamera, TheSubjectStandsInTheFitPoseBeforeTheMotion) {
   const Expected<std::shared_ptr<FakeScene>> refused = FakeScene::create(hand);
   ASSERT_FALSE(refused.ok());
   EXPECT_THAT(refused.error(), HasSubstr("the body model 'hand' has no fit_pose"));
+}
+
+// A human scene seen by two 320x240 cameras, noiseless so a painted pixel is one the person covers;
+// with `subject_seed`, the simulated person drawn from it. The motion moves every joint, the pelvis
+// bobbing a few centimetres about its standing height as a person's does.
+FakeSceneOptions humanScene(std::optional<uint64_t> subject_seed) {
+  FakeSceneOptions options = smallScene(FakePacing::kAsFastAsPossible, 0).scene;
+  const BodyModel human = builtinHumanModel();
+  options.model = std::make_shared<const BodyModel>(human);
+  Motion motion = generateMotion(human, 12, 1);
+  const int height = human.dofIndex("root_tz");
+  for (std::size_t f = 0; f < motion.size(); ++f)
+    motion[f][height] = human.neutralPose()[height] + 0.03 * std::sin(0.7 * static_cast<double>(f));
+  options.motion = std::make_shared<const Motion>(std::move(motion));
+  options.noise_sigma = 0;
+  if (subject_seed) options.subject = drawSubjectParams(*subject_seed);
+  return options;
+}
+
+cv::Mat renderFrame(const FakeScene& scene, int camera, uint64_t sequence) {
+  FakeRenderScratch scratch(scene.model(), scene.rig()[camera].height);
+  cv::Mat image;
+  scene.render(camera, sequence, scratch, image);
+  return image;
+}
+
+// 255 where `image` differs from the scene's background.
+cv::Mat paintedPixels(const FakeScene& scene, int camera, const cv::Mat& image) {
+  cv::Mat difference;
+  cv::absdiff(image, scene.background(camera), difference);
+  if (difference.channels() == 3) cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+  return difference > 0;
+}
+
+double intersectionOverUnion(const cv::Mat& a, const cv::Mat& b) {
+  const int both = cv::countNonZero(a & b), either = cv::countNonZero(a | b);
+  return either == 0 ? 1.0 : static_cast<double>(both) / either;
+}
+
+// With a subject, the cameras and the truth show the simulated person: not the model's
+// silhouette, and its joints are the subject's, which the truth body reproduces from the DOFs.
+TEST(FakeSceneSubject, TheCamerasAndTheTruthShowThePersonNotTheModel) {
+  for (const bool gray : {false, true}) {
+    SCOPED_TRACE(gray ? "gray" : "colour");
+    FakeSceneOptions options = humanScene(7);
+    options.gray = gray;
+    const Expected<std::shared_ptr<FakeScene>> created = FakeScene::create(options);
+    ASSERT_TRUE(created.ok()) << created.error();
+    const FakeScene& scene = *created.value();
+    ASSERT_NE(scene.subject(), nullptr);
+    const BodyModel& model = scene.model();
+    SceneRenderer model_renderer(model, scene.rig());
+    KinematicsData truth_kinematics(*scene.truthBody());
+    for (const uint64_t sequence : {0u, 5u, 11u}) {
+      SCOPED_TRACE(sequence);
+      const GroundTruth truth = scene.groundTruth(sequence);
+      const std::vector<cv::Mat> model_silhouettes = model_renderer.renderSilhouettes(truth.q);
+      for (int c = 0; c < 2; ++c) {
+        const cv::Mat& silhouette = truth.silhouettes[c];
+        ASSERT_GT(cv::countNonZero(silhouette), 300);
+        EXPECT_LT(intersectionOverUnion(silhouette, model_silhouettes[c]), 0.8);
+        const cv::Mat painted = paintedPixels(scene, c, renderFrame(scene, c, sequence));
+        EXPECT_GT(intersectionOverUnion(painted, silhouette), 0.97);
+      }
+      // The subject's joints, posed by the model's at the true pose.
+      const SubjectJoints joints = scene.subject()->retarget(subjectJointsAt(model, truth.q));
+      const std::vector<Eigen::Vector3d> expected = modelPointsFromJoints(model, joints);
+      ASSERT_EQ(truth.points.size(), model.points.size());
+      KinematicsData kinematics(model);
+      forwardKinematics(model, kinematics, truth.q);
+      const std::vector<Eigen::Vector3d> model_points = pointPositions(model, kinematics);
+      forwardKinematics(*scene.truthBody(), truth_kinematics, truth.q);
+      const std::vector<Eigen::Vector3d> carried =
+          pointPositions(*scene.truthBody(), truth_kinematics);
+      double off_model = 0, off_carried = 0;
+      for (std::size_t p = 0; p < expected.size(); ++p) {
+        EXPECT_LT((truth.points[p] - expected[p]).norm(), 1e-12) << model.points[p].name;
+        off_model += (truth.points[p] - model_points[p]).norm() / expected.size();
+        off_carried = std::max(off_carried, (truth.points[p] - carried[p]).norm());
+      }
+      EXPECT_GT(off_model, 0.02) << "the subject's joints are not the model's";
+      EXPECT_LT(off_carried, 0.01) << "the truth body carries the subject's joints in the DOFs";
+    }
+  }
+}
+
+// Without a subject nothing changes: the model painted, its silhouettes and points the truth, the
+// same pixels with the option absent or cleared.
+TEST(FakeSceneSubject, WithoutOneTheModelIsPaintedAsBefore) {
+  const Expected<std::shared_ptr<FakeScene>> plain = FakeScene::create(humanScene(std::nullopt));
+  const Expected<std::shared_ptr<FakeScene>> person = FakeScene::create(humanScene(7));
+  FakeSceneOptions cleared = humanScene(7);
+  cleared.subject.reset();
+  const Expected<std::shared_ptr<FakeScene>> reference = FakeScene::create(cleared);
+  ASSERT_TRUE(plain.ok() && person.ok() && reference.ok());
+  EXPECT_EQ(plain.value()->subject(), nullptr);
+  EXPECT_EQ(plain.value()->truthBody().get(), &plain.value()->model());
+  SceneRenderer model_renderer(plain.value()->model(), plain.value()->rig());
+  for (const uint64_t sequence : {0u, 6u}) {
+    for (int c = 0; c < 2; ++c) {
+      const cv::Mat image = renderFrame(*plain.value(), c, sequence);
+      EXPECT_EQ(cv::norm(image, renderFrame(*reference.value(), c, sequence), cv::NORM_INF), 0);
+      EXPECT_GT(cv::norm(image, renderFrame(*person.value(), c, sequence), cv::NORM_L1), 0);
+    }
+    const GroundTruth truth = plain.value()->groundTruth(sequence);
+    const std::vector<cv::Mat> model_silhouettes = model_renderer.renderSilhouettes(truth.q);
+    for (int c = 0; c < 2; ++c)
+      EXPECT_EQ(cv::countNonZero(truth.silhouettes[c] != model_silhouettes[c]), 0);
+    KinematicsData kinematics(plain.value()->model());
+    forwardKinematics(plain.value()->model(), kinematics, truth.q);
+    EXPECT_EQ(truth.points, pointPositions(plain.value()->model(), kinematics));
+  }
+}
+
+// A subject is posed by the human's joints: a body without them is refused, naming the model.
+TEST(FakeSceneSubject, NeedsABodyWithTheHumansJoints) {
+  FakeSceneOptions hand = smallScene(FakePacing::kAsFastAsPossible, 0).scene;
+  hand.subject = drawSubjectParams(1);
+  const Expected<std::shared_ptr<FakeScene>> refused = FakeScene::create(hand);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.error(), HasSubstr("a subject needs a body model with the human's joints"));
+  EXPECT_THAT(refused.error(), HasSubstr("(hand)"));
 }
 
 TEST(FakeSceneCamera, AsFastAsPossibleDeliversEveryFrameOnePeriodApart) {
