@@ -18,6 +18,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "tracker/model/body_model.h"
+#include "tracker/motion/joint_map.h"
 
 namespace mocap {
 
@@ -289,6 +290,35 @@ class ConfigParser {
     return web;
   }
 
+  // scene_subject_seed, scene_motion_units, scene_motion_joint_map: with a scene_motion only.
+  void sceneSubjectKeys(const YAML::Node& root, ServerConfig& config) const {
+    for (const char* key : {"scene_subject_seed", "scene_motion_units", "scene_motion_joint_map"})
+      if (root[key] && config.scene_motion.empty())
+        fail(root[key], key, "needs a scene_motion (the fake scene playing a recorded subject)");
+    if (const YAML::Node seed = root["scene_subject_seed"]) {
+      // Seeds are whole numbers up to 2^53, which a YAML number holds exactly.
+      const double value = number(seed, "scene_subject_seed", 0, 9007199254740992.0);
+      if (value != std::floor(value))
+        fail(seed, "scene_subject_seed", "expected a whole number, got " + seed.Scalar());
+      config.scene_subject_seed = static_cast<uint64_t>(value);
+    }
+    if (const YAML::Node units = root["scene_motion_units"]) {
+      try {
+        config.scene_motion_load.units = parseBvhUnits(text(units, "scene_motion_units"));
+      } catch (const std::invalid_argument& e) {
+        fail(units, "scene_motion_units", e.what());
+      }
+    }
+    if (const YAML::Node map = root["scene_motion_joint_map"]) {
+      config.scene_motion_load.joint_map = existingFile(map, "scene_motion_joint_map");
+      try {
+        loadJointMap(config.scene_motion_load.joint_map);  // checked against the skeleton later
+      } catch (const std::exception& e) {
+        fail(map, "scene_motion_joint_map", e.what());
+      }
+    }
+  }
+
   ServerConfig parse(const YAML::Node& root) const {
     ServerConfig config;
     config.source = source_;
@@ -297,6 +327,7 @@ class ConfigParser {
         {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "recording_directory",
          "background_directory", "silhouettes", "before_background", "tls", "auth", "log_level",
          "scene_motion", "scene_empty_seconds", "scene_fit_pose_seconds", "track_subject_body",
+         "scene_subject_seed", "scene_motion_units", "scene_motion_joint_map",
          "web"});
 
     const YAML::Node cameras = root["cameras"];
@@ -362,6 +393,7 @@ class ConfigParser {
     }
     if (const YAML::Node track = needsMotion("track_subject_body"))
       config.track_subject_body = boolean(track, "track_subject_body");
+    sceneSubjectKeys(root, config);
 
     if (config.body_model == "builtin:human" || !config.scene_motion.empty() ||
         (config.body_model_file && config.body_model_file->person))

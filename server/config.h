@@ -12,6 +12,7 @@
 
 #include "drivers/camera_driver.h"
 #include "tracker/filters/filter.h"
+#include "tracker/motion/bvh.h"
 
 namespace mocap {
 
@@ -59,13 +60,13 @@ struct SyncSettings {
   std::optional<double> deadline_ms;   // default: two frame periods
 };
 
-struct ServerConfig {
 // The web view (server/web_view.h): served by the daemon, on loopback unless told otherwise.
 struct WebSettings {
   bool enabled = true;
   std::string listen = "127.0.0.1:8080";
 };
 
+struct ServerConfig {
   std::string source = "<embedded default>";  // where it came from, for messages
   std::vector<CameraConfig> cameras;
   // OpenCV FileStorage rig file; empty: the rig the cameras' driver describes (fake scene).
@@ -89,6 +90,15 @@ struct WebSettings {
   // With a scene_motion: false tracks the configured body_model as given (as with a real person,
   // whose body nobody fitted beforehand) while the scene still shows the recorded subject's body.
   bool track_subject_body = true;
+  // With a scene_motion: the seed of the simulated person the cameras see in place of the body
+  // (`scene_subject_seed`; tracker/sim/subject.h), moving as the body does: a subject whose shape
+  // and clothes are not the tracked body's (the product path). The scene's truth is then that
+  // person's. Unset: the cameras see the body itself.
+  std::optional<uint64_t> scene_subject_seed;
+  // With a scene_motion: how its BVH file is read (tracker/motion/bvh.h): its length unit
+  // (`scene_motion_units`: auto, m, cm, mm, cmu or inch) and a joint map file for a skeleton whose
+  // naming is not built in (`scene_motion_joint_map`, resolved against the configuration's folder).
+  BvhLoadOptions scene_motion_load;
   TrackerSettings tracker;
   // The `tracker:` keys the file set itself, as written (a replay applies them over the session's).
   std::vector<std::pair<std::string, std::string>> tracker_keys;
@@ -112,6 +122,7 @@ struct WebSettings {
   // TLS); empty: clients are not asked for one (the bearer token authenticates them).
   std::string tls_client_ca_file;
   std::string bearer_token;  // empty: no token required
+  WebSettings web;
   LogLevel log_level = LogLevel::kInfo;
   // Replay a recorded session instead of the configured cameras.
   std::string replay_directory;
@@ -122,7 +133,6 @@ struct WebSettings {
 
 // The configuration used when mocapd is started without --config: the fake two-camera scene at
 // 780x580 and 25 Hz, listening on loopback.
-  WebSettings web;
 extern const char* const kDefaultConfigYaml;
 
 // Parses and checks a configuration; `source` names it in messages. Relative paths in it are

@@ -99,7 +99,8 @@ Status MocapServer::loadSceneMotion() {
   try {
     const double fps = config_.cameras.front().fps;
     if (!model_) model_ = std::make_unique<BodyModel>(atFrameRate(builtinHumanModel(), fps));
-    SceneSubject subject = loadSceneSubject(config_.scene_motion, *model_, fps);
+    SceneSubject subject =
+        loadSceneSubject(config_.scene_motion, *model_, fps, config_.scene_motion_load);
     scene_motion_ = std::move(subject.motion);
     if (config_.track_subject_body)
       model_ = std::make_unique<BodyModel>(*subject.body);
@@ -209,6 +210,7 @@ Status MocapServer::openFakeScene(PipelineInputs& inputs) {
   options.subject = subject_body_ ? subject_body_.get() : model_.get();
   options.rig = rig_.get();
   options.motion = scene_motion_;
+  options.subject_seed = config.scene_subject_seed;
   Expected<FakeSceneSetup> setup = setUpFakeScene(options);
   if (!setup.ok()) return Status::Error(setup.error());
   std::shared_ptr<FakeScene> scene = setup.value().scene;
@@ -228,7 +230,9 @@ Status MocapServer::openFakeScene(PipelineInputs& inputs) {
   for (std::size_t c = 0; c < config.cameras.size(); ++c)
     inputs.cameras.push_back(openedCamera(config.cameras[c], std::move(setup.value().cameras[c])));
   inputs.reference_pose = [scene](uint64_t sequence) { return scene->truePose(sequence); };
-  inputs.reference_model = subject_body_;
+  // Scored against the joints of whom the cameras see: the scene's body, or its simulated person
+  // (carried as the scene's DOFs on a body with that person's bones, so recordings keep it too).
+  inputs.reference_model = scene->subject() ? scene->truthBody() : subject_body_;
   // The subject's first pose in view, as a real session would give it by a start-up pose.
   inputs.initial_pose = scene->truePose(scene->options().empty_frames);
   return Status::Ok();
@@ -307,14 +311,10 @@ Status MocapServer::start() {
                 : config_.tls_client_ca_file.empty() ? " with TLS"
                                                      : " with TLS and client certificates")
             << (config_.bearer_token.empty() ? "" : ", bearer token required");
+  startWebView();
   return Status::Ok();
 }
 
-void MocapServer::shutdown() {
-  startWebView();
-  if (shut_down_) return;
-  shut_down_ = true;
-  if (server_) server_->GetHealthCheckService()->Shutdown();
 void MocapServer::startWebView() {
   if (!web_) return;
   const Status listening = web_->start();
@@ -328,13 +328,17 @@ void MocapServer::startWebView() {
             << "/";
 }
 
+void MocapServer::shutdown() {
+  if (shut_down_) return;
+  shut_down_ = true;
+  if (server_) server_->GetHealthCheckService()->Shutdown();
   if (pipeline_) pipeline_->stop();
   publisher_.close();
+  if (web_) web_->stop();
   if (server_) server_->Shutdown(std::chrono::system_clock::now() + kShutdownGrace);
   logInfo() << "stopped";
 }
 
-  if (web_) web_->stop();
 std::string describeAvailableCameras() {
   std::ostringstream out;
   for (const std::string& name : DriverRegistry::instance().names()) {

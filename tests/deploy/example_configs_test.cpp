@@ -83,8 +83,8 @@ TEST(ExampleConfigsTest, EveryShippedExampleIsCoveredHere) {
   }
   EXPECT_EQ(found,
             (std::set<std::string>{"fake.yaml", "fake-walk.yaml", "fake-walk-extracted.yaml",
-                                   "fake-walk-fit.yaml", "gige.yaml", "libcamera.yaml",
-                                   "replay.yaml", "v4l2.yaml"}));
+                                   "fake-walk-fit.yaml", "fake-walk-product.yaml", "gige.yaml",
+                                   "libcamera.yaml", "replay.yaml", "v4l2.yaml"}));
 }
 
 TEST(ExampleConfigsTest, FakeIsTheEmbeddedDefaultSpeltOut) {
@@ -147,6 +147,25 @@ TEST(ExampleConfigsTest, FakeWalkFitTracksTheShippedBodyWhileTheSubjectStandsInT
   EXPECT_FALSE(config.track_subject_body);
   EXPECT_TRUE(walk.track_subject_body);
   EXPECT_EQ(config.scene_fit_pose_seconds, 20.0);
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, walk.tracker.filter.evaluations_per_frame);
+  EXPECT_EQ(config.tracker.filter.lookahead, walk.tracker.filter.lookahead);
+}
+
+// The product path: a simulated person, not the body, seen in an empty room first (for the
+// background), standing in the fit pose (for the body fit), found on extracted silhouettes by the
+// shipped body; the people defaults otherwise.
+TEST(ExampleConfigsTest, FakeWalkProductShowsAPersonToTheShippedBodyOnExtractedSilhouettes) {
+  const ServerConfig config = loadConfigFile((kConfigDir / "fake-walk-product.yaml").string());
+  const ServerConfig walk = loadConfigFile((kConfigDir / "fake-walk.yaml").string());
+  EXPECT_EQ(config.scene_motion, walk.scene_motion);
+  ASSERT_TRUE(config.scene_subject_seed);
+  EXPECT_FALSE(walk.scene_subject_seed);
+  EXPECT_EQ(config.body_model, "builtin:human");
+  EXPECT_FALSE(config.track_subject_body);
+  EXPECT_GT(config.scene_empty_seconds, 0.0);
+  EXPECT_GT(config.scene_fit_pose_seconds, 0.0);
+  EXPECT_FALSE(config.true_silhouettes);
+  EXPECT_EQ(config.tracker.start, "acquire");
   EXPECT_EQ(config.tracker.filter.evaluations_per_frame, walk.tracker.filter.evaluations_per_frame);
   EXPECT_EQ(config.tracker.filter.lookahead, walk.tracker.filter.lookahead);
 }

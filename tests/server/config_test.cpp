@@ -386,6 +386,55 @@ TEST(ConfigTest, TheFitPoseSecondsAndTheTrackedBodyOfASceneMotion) {
     EXPECT_THAT(errorOf(yaml), HasSubstr(expected)) << yaml;
 }
 
+// A scene_motion can be shown as a simulated person (scene_subject_seed) and read in a given
+// length unit with a joint map (scene_motion_units, scene_motion_joint_map); all three need a
+// scene_motion, and a bad value is refused naming its key.
+TEST(ConfigTest, TheSceneSubjectAndHowTheSceneMotionIsRead) {
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  const std::string walk = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
+  const std::string map = MOCAP_SOURCE_DIR "/tracker/models/joint_maps/cgspeed.yaml";
+  const ServerConfig plain = parseConfig(cameras + "scene_motion: " + walk + "\n", "t.yaml", ".");
+  EXPECT_FALSE(plain.scene_subject_seed);
+  EXPECT_EQ(plain.scene_motion_load.units, BvhUnits::kAuto);
+  EXPECT_TRUE(plain.scene_motion_load.joint_map.empty());
+  const ServerConfig product =
+      parseConfig(cameras + "scene_motion: " + walk +
+                      "\nscene_subject_seed: 12\nscene_motion_units: cmu\n"
+                      "scene_motion_joint_map: " + map + "\n",
+                  "t.yaml", ".");
+  ASSERT_TRUE(product.scene_subject_seed);
+  EXPECT_EQ(*product.scene_subject_seed, 12u);
+  EXPECT_EQ(product.scene_motion_load.units, BvhUnits::kCmu);
+  EXPECT_EQ(product.scene_motion_load.joint_map, map);
+
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "config_subject";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "bad_map.yaml") << "joints: [1, 2\n";
+  const std::string bad_map = (dir / "bad_map.yaml").string();
+  const std::string motion = cameras + "scene_motion: " + walk + "\n";
+  const std::pair<std::string, std::string> cases[] = {
+      {cameras + "scene_subject_seed: 3\n",
+       "test.yaml:3: scene_subject_seed: needs a scene_motion (the fake scene playing a recorded "
+       "subject)"},
+      {cameras + "scene_motion_units: cm\n", "test.yaml:3: scene_motion_units: needs a scene_motion"},
+      {cameras + "scene_motion_joint_map: " + map + "\n",
+       "test.yaml:3: scene_motion_joint_map: needs a scene_motion"},
+      {motion + "scene_subject_seed: -1\n", "test.yaml:4: scene_subject_seed: must be between 0"},
+      {motion + "scene_subject_seed: 2.5\n",
+       "test.yaml:4: scene_subject_seed: expected a whole number, got 2.5"},
+      {motion + "scene_subject_seed: anyone\n",
+       "test.yaml:4: scene_subject_seed: expected a number, got 'anyone'"},
+      {motion + "scene_motion_units: furlongs\n",
+       "test.yaml:4: scene_motion_units: BVH units: expected one of"},
+      {motion + "scene_motion_joint_map: /no/such/map.yaml\n",
+       "test.yaml:4: scene_motion_joint_map: no such file: /no/such/map.yaml"},
+      {motion + "scene_motion_joint_map: " + bad_map + "\n",
+       "test.yaml:4: scene_motion_joint_map: " + bad_map},
+  };
+  for (const auto& [yaml, expected] : cases)
+    EXPECT_THAT(errorOf(yaml), HasSubstr(expected)) << yaml;
+}
+
 TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
   EXPECT_EQ(
