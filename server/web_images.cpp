@@ -4,6 +4,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <thread>
+
 namespace mocap {
 namespace {
 
@@ -68,11 +70,16 @@ std::optional<std::string> CameraImages::jpeg(std::size_t camera) {
   cv::Mat image;
   std::shared_ptr<const SilhouetteMask> mask;
   uint64_t sequence = 0;
-  {
-    std::lock_guard lock(mutex_);
-    image = images_[camera];
-    mask = masks_[camera];
-    sequence = set_sequence_;
+  // The first request starts the keeping of frames: wait for the next set rather than refuse.
+  for (int wait = 0; wait < 10; ++wait) {
+    {
+      std::lock_guard lock(mutex_);
+      image = images_[camera];
+      mask = masks_[camera];
+      sequence = set_sequence_;
+    }
+    if (!image.empty()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   if (image.empty()) {
     if (cached.jpeg.empty()) return std::nullopt;
