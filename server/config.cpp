@@ -319,17 +319,8 @@ class ConfigParser {
     }
   }
 
-  ServerConfig parse(const YAML::Node& root) const {
-    ServerConfig config;
-    config.source = source_;
-    onlyKeys(
-        root, "",
-        {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "recording_directory",
-         "background_directory", "silhouettes", "before_background", "tls", "auth", "log_level",
-         "scene_motion", "scene_empty_seconds", "scene_fit_pose_seconds", "track_subject_body",
-         "scene_subject_seed", "scene_motion_units", "scene_motion_joint_map",
-         "web"});
-
+  // `cameras`: at least one, all at the first one's rate.
+  void cameraKeys(const YAML::Node& root, ServerConfig& config) const {
     const YAML::Node cameras = root["cameras"];
     if (!cameras) fail(root, "cameras", "missing (at least one camera is needed)");
     if (!cameras.IsSequence() || cameras.size() == 0)
@@ -343,7 +334,10 @@ class ConfigParser {
         fail(cameras[i]["fps"], "cameras[" + std::to_string(i) + "].fps",
              "every camera of the rig must run at the same rate as cameras[0]");
     }
+  }
 
+  // What is tracked and what the fake scene plays: calibration, body_model, scene_*.
+  void sceneKeys(const YAML::Node& root, ServerConfig& config) const {
     if (root["calibration"])
       config.calibration_file = existingFile(root["calibration"], "calibration");
     if (root["body_model"]) {
@@ -394,30 +388,10 @@ class ConfigParser {
     if (const YAML::Node track = needsMotion("track_subject_body"))
       config.track_subject_body = boolean(track, "track_subject_body");
     sceneSubjectKeys(root, config);
+  }
 
-    if (config.body_model == "builtin:human" || !config.scene_motion.empty() ||
-        (config.body_model_file && config.body_model_file->person))
-      config.tracker = TrackerSettings::forPeople();
-    if (const YAML::Node tracker = root["tracker"]) {
-      trackerKeys(tracker, config.tracker);
-      for (const auto& entry : tracker)
-        config.tracker_keys.emplace_back(entry.first.Scalar(), entry.second.Scalar());
-    }
-
-    if (const YAML::Node sync = root["sync"]) {
-      onlyKeys(sync, "sync", {"tolerance_ms", "deadline_ms"});
-      if (sync["tolerance_ms"])
-        config.sync.tolerance_ms = number(sync["tolerance_ms"], "sync.tolerance_ms", 0.01, 10'000);
-      if (sync["deadline_ms"])
-        config.sync.deadline_ms = number(sync["deadline_ms"], "sync.deadline_ms", 0.01, 60'000);
-    }
-
-    if (root["listen"]) {
-      config.listen = text(root["listen"], "listen");
-      if (config.listen.rfind(':') == std::string::npos)
-        fail(root["listen"], "listen", "expected host:port, got '" + config.listen + "'");
-    }
-
+  // recording_directory and background_directory: existing, and writable where written.
+  void directoryKeys(const YAML::Node& root, ServerConfig& config) const {
     if (root["recording_directory"]) {
       const YAML::Node node = root["recording_directory"];
       const std::filesystem::path dir = resolve(text(node, "recording_directory"));
@@ -438,7 +412,10 @@ class ConfigParser {
         fail(node, "background_directory", "not writable by the daemon: " + dir.string());
       config.background_directory = std::filesystem::canonical(dir, error).string();
     }
+  }
 
+  // Where silhouettes come from: silhouettes, before_background.
+  void silhouetteKeys(const YAML::Node& root, ServerConfig& config) const {
     if (root["silhouettes"]) {
       const YAML::Node node = root["silhouettes"];
       const std::string source = text(node, "silhouettes");
@@ -459,7 +436,10 @@ class ConfigParser {
         fail(node, "before_background", "expected wait or threshold, got '" + choice + "'");
       config.threshold_before_background = choice == "threshold";
     }
+  }
 
+  // tls and auth.
+  void securityKeys(const YAML::Node& root, ServerConfig& config) const {
     if (const YAML::Node tls = root["tls"]) {
       onlyKeys(tls, "tls", {"cert", "key", "client_ca"});
       if (!tls["cert"] || !tls["key"]) fail(tls, "tls", "needs both 'cert' and 'key'");
@@ -488,7 +468,47 @@ class ConfigParser {
       if (config.bearer_token.size() < 16)
         fail(auth, "auth", "the token must be at least 16 characters");
     }
+  }
 
+  ServerConfig parse(const YAML::Node& root) const {
+    ServerConfig config;
+    config.source = source_;
+    onlyKeys(root, "",
+             {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "web",
+              "recording_directory", "background_directory", "silhouettes", "before_background",
+              "tls", "auth", "log_level", "scene_motion", "scene_empty_seconds",
+              "scene_fit_pose_seconds", "track_subject_body", "scene_subject_seed",
+              "scene_motion_units", "scene_motion_joint_map"});
+
+    cameraKeys(root, config);
+    sceneKeys(root, config);
+
+    if (config.body_model == "builtin:human" || !config.scene_motion.empty() ||
+        (config.body_model_file && config.body_model_file->person))
+      config.tracker = TrackerSettings::forPeople();
+    if (const YAML::Node tracker = root["tracker"]) {
+      trackerKeys(tracker, config.tracker);
+      for (const auto& entry : tracker)
+        config.tracker_keys.emplace_back(entry.first.Scalar(), entry.second.Scalar());
+    }
+
+    if (const YAML::Node sync = root["sync"]) {
+      onlyKeys(sync, "sync", {"tolerance_ms", "deadline_ms"});
+      if (sync["tolerance_ms"])
+        config.sync.tolerance_ms = number(sync["tolerance_ms"], "sync.tolerance_ms", 0.01, 10'000);
+      if (sync["deadline_ms"])
+        config.sync.deadline_ms = number(sync["deadline_ms"], "sync.deadline_ms", 0.01, 60'000);
+    }
+
+    if (root["listen"]) {
+      config.listen = text(root["listen"], "listen");
+      if (config.listen.rfind(':') == std::string::npos)
+        fail(root["listen"], "listen", "expected host:port, got '" + config.listen + "'");
+    }
+
+    directoryKeys(root, config);
+    silhouetteKeys(root, config);
+    securityKeys(root, config);
     if (root["web"]) config.web = web(root["web"]);
 
     if (root["log_level"]) {

@@ -35,10 +35,13 @@
 
 namespace mocap::test {
 
-// The embedded default (fake scene, 2 cameras, 780x580, 25 Hz) on a port the OS picks.
+// The embedded default (fake scene, 2 cameras, 780x580, 25 Hz) on a port the OS picks, without
+// the web view (its own suite turns it on): the view subscribes to the poses, and the other
+// suites count subscribers.
 inline ServerConfig sceneConfig() {
   ServerConfig config = parseConfig(kDefaultConfigYaml, "<embedded default>", ".");
   config.listen = "127.0.0.1:0";
+  config.web.enabled = false;
   config.log_level = LogLevel::kWarning;
   return config;
 }

@@ -33,7 +33,9 @@ using nlohmann::json;
 
 constexpr const char* kToken = "web-view-test-token-0123456789";
 
+// The scene's daemon with its web view on (test::sceneConfig turns it off for the other suites).
 std::unique_ptr<MocapServer> startServer(ServerConfig config) {
+  config.web.enabled = true;
   config.web.listen = "127.0.0.1:0";
   Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
   EXPECT_TRUE(server.ok()) << server.error();
