@@ -185,9 +185,8 @@ void BodyFitJob::run(Collection collection) {
     std::string why_not;
     BodyFitOptions options;
     options.should_stop = [this] { return stop_fit_.load(); };
-    const std::optional<BodyFit> fit =
-        fitBodyInPose(model, rig_, collection.frames, config_.tracker.filter.likelihood,
-                      options, &why_not);
+    const std::optional<BodyFit> fit = fitBodyInPose(
+        model, rig_, collection.frames, config_.tracker.filter.likelihood, options, &why_not);
     if (fit) {
       // The sets the subject was found in (fitBodyInPose leaves the others out).
       result.frame_sets_used = static_cast<int>(fit->poses.size());

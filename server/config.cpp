@@ -474,11 +474,27 @@ class ConfigParser {
     ServerConfig config;
     config.source = source_;
     onlyKeys(root, "",
-             {"cameras", "calibration", "body_model", "tracker", "sync", "listen", "web",
-              "recording_directory", "background_directory", "silhouettes", "before_background",
-              "tls", "auth", "log_level", "scene_motion", "scene_empty_seconds",
-              "scene_fit_pose_seconds", "track_subject_body", "scene_subject_seed",
-              "scene_motion_units", "scene_motion_joint_map"});
+             {"cameras",
+              "calibration",
+              "body_model",
+              "tracker",
+              "sync",
+              "listen",
+              "web",
+              "recording_directory",
+              "background_directory",
+              "silhouettes",
+              "before_background",
+              "tls",
+              "auth",
+              "log_level",
+              "scene_motion",
+              "scene_empty_seconds",
+              "scene_fit_pose_seconds",
+              "track_subject_body",
+              "scene_subject_seed",
+              "scene_motion_units",
+              "scene_motion_joint_map"});
 
     cameraKeys(root, config);
     sceneKeys(root, config);

@@ -87,7 +87,8 @@ std::optional<std::string> CameraImages::jpeg(std::size_t camera) {
   }
   if (sequence != cached.set_sequence || cached.jpeg.empty()) {
     std::vector<unsigned char> bytes;
-    cv::imencode(".jpg", tinted(image, mask.get()), bytes, {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
+    cv::imencode(".jpg", tinted(image, mask.get()), bytes,
+                 {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
     cached.jpeg.assign(bytes.begin(), bytes.end());
     cached.set_sequence = sequence;
   }

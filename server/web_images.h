@@ -45,7 +45,7 @@ class CameraImages {
   };
   const std::chrono::milliseconds min_interval_;
   std::atomic<int64_t> wanted_until_ns_{0};  // steady clock: keep() keeps frames until then
-  std::mutex mutex_;                          // guards the four below
+  std::mutex mutex_;                         // guards the four below
   std::vector<cv::Mat> images_;
   std::vector<std::shared_ptr<const SilhouetteMask>> masks_;
   uint64_t set_sequence_ = 0;

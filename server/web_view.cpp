@@ -78,40 +78,55 @@ void replyResult(httplib::Response& response, int code, const std::string& messa
 
 int httpCode(RecordingError error) {
   switch (error) {
-    case RecordingError::kNone: return 200;
-    case RecordingError::kBadPath: return 400;
-    case RecordingError::kOutsideRoot: return 403;
+    case RecordingError::kNone:
+      return 200;
+    case RecordingError::kBadPath:
+      return 400;
+    case RecordingError::kOutsideRoot:
+      return 403;
     case RecordingError::kNotConfigured:
     case RecordingError::kBusy:
-    case RecordingError::kNotRecording: return 409;
-    case RecordingError::kIo: return 500;
+    case RecordingError::kNotRecording:
+      return 409;
+    case RecordingError::kIo:
+      return 500;
   }
   return 500;
 }
 
 int httpCode(BackgroundError error) {
   switch (error) {
-    case BackgroundError::kNone: return 200;
+    case BackgroundError::kNone:
+      return 200;
     case BackgroundError::kReplay:
-    case BackgroundError::kBusy: return 409;
-    case BackgroundError::kStalled: return 504;
-    case BackgroundError::kStopped: return 503;
+    case BackgroundError::kBusy:
+      return 409;
+    case BackgroundError::kStalled:
+      return 504;
+    case BackgroundError::kStopped:
+      return 503;
     case BackgroundError::kUnusable:
-    case BackgroundError::kNotSaved: return 500;
+    case BackgroundError::kNotSaved:
+      return 500;
   }
   return 500;
 }
 
 int httpCode(BodyFitError error) {
   switch (error) {
-    case BodyFitError::kNone: return 200;
+    case BodyFitError::kNone:
+      return 200;
     case BodyFitError::kCannotFit:
     case BodyFitError::kCannotApply:
     case BodyFitError::kBusy:
-    case BodyFitError::kNoSubject: return 409;
-    case BodyFitError::kStalled: return 504;
-    case BodyFitError::kStopped: return 503;
-    case BodyFitError::kFailed: return 500;
+    case BodyFitError::kNoSubject:
+      return 409;
+    case BodyFitError::kStalled:
+      return 504;
+    case BodyFitError::kStopped:
+      return 503;
+    case BodyFitError::kFailed:
+      return 500;
   }
   return 500;
 }
@@ -326,38 +341,38 @@ void WebView::streamPoses(httplib::Response& response) {
 
 void WebView::addControlRoutes() {
   httplib::Server& server = *server_;
-  server.Post("/api/background", [this](const httplib::Request& request,
-                                        httplib::Response& response) {
-    if (!authorized(request, response)) return;
-    const std::optional<int> frames = intParam(request, "frames", kDefaultBackgroundFrames);
-    if (!frames || *frames < 1 || *frames > kMaxBackgroundFrames)
-      return replyResult(response, 400,
-                         "frames: from 1 to " + std::to_string(kMaxBackgroundFrames));
-    logInfo() << "background capture of " << *frames << " frames requested by the web view";
-    const auto result = await<BackgroundResult>(
-        [&](auto done) { pipeline_.captureBackground(*frames, std::move(done)); });
-    if (!result) return replyResult(response, 504, "no answer from the pipeline");
-    replyResult(response, httpCode(result->error), result->message,
-                {{"frames_used", result->frames_used}, {"warnings", result->warnings}});
-  });
-  server.Post("/api/fit-body", [this](const httplib::Request& request,
-                                      httplib::Response& response) {
-    if (!authorized(request, response)) return;
-    const std::optional<int> frame_sets = intParam(request, "frame_sets", kDefaultFitFrameSets);
-    if (!frame_sets || *frame_sets < 1 || *frame_sets > kMaxFitFrameSets)
-      return replyResult(response, 400,
-                         "frame_sets: from 1 to " + std::to_string(kMaxFitFrameSets));
-    const bool apply = request.get_param_value("apply") == "1";
-    logInfo() << "body fit from " << *frame_sets << " frame sets" << (apply ? ", applied," : "")
-              << " requested by the web view";
-    const auto result = await<FitBodyResult>(
-        [&](auto done) { pipeline_.fitBody(*frame_sets, apply, std::move(done)); });
-    if (!result) return replyResult(response, 504, "no answer from the pipeline");
-    replyResult(response, httpCode(result->error), result->message,
-                {{"frame_sets_used", result->frame_sets_used},
-                 {"fit_seconds", result->fit_seconds},
-                 {"body_version", result->body_version}});
-  });
+  server.Post(
+      "/api/background", [this](const httplib::Request& request, httplib::Response& response) {
+        if (!authorized(request, response)) return;
+        const std::optional<int> frames = intParam(request, "frames", kDefaultBackgroundFrames);
+        if (!frames || *frames < 1 || *frames > kMaxBackgroundFrames)
+          return replyResult(response, 400,
+                             "frames: from 1 to " + std::to_string(kMaxBackgroundFrames));
+        logInfo() << "background capture of " << *frames << " frames requested by the web view";
+        const auto result = await<BackgroundResult>(
+            [&](auto done) { pipeline_.captureBackground(*frames, std::move(done)); });
+        if (!result) return replyResult(response, 504, "no answer from the pipeline");
+        replyResult(response, httpCode(result->error), result->message,
+                    {{"frames_used", result->frames_used}, {"warnings", result->warnings}});
+      });
+  server.Post(
+      "/api/fit-body", [this](const httplib::Request& request, httplib::Response& response) {
+        if (!authorized(request, response)) return;
+        const std::optional<int> frame_sets = intParam(request, "frame_sets", kDefaultFitFrameSets);
+        if (!frame_sets || *frame_sets < 1 || *frame_sets > kMaxFitFrameSets)
+          return replyResult(response, 400,
+                             "frame_sets: from 1 to " + std::to_string(kMaxFitFrameSets));
+        const bool apply = request.get_param_value("apply") == "1";
+        logInfo() << "body fit from " << *frame_sets << " frame sets" << (apply ? ", applied," : "")
+                  << " requested by the web view";
+        const auto result = await<FitBodyResult>(
+            [&](auto done) { pipeline_.fitBody(*frame_sets, apply, std::move(done)); });
+        if (!result) return replyResult(response, 504, "no answer from the pipeline");
+        replyResult(response, httpCode(result->error), result->message,
+                    {{"frame_sets_used", result->frame_sets_used},
+                     {"fit_seconds", result->fit_seconds},
+                     {"body_version", result->body_version}});
+      });
   server.Post("/api/recording/start", [this](const httplib::Request& request,
                                              httplib::Response& response) {
     if (!authorized(request, response)) return;
@@ -367,27 +382,27 @@ void WebView::addControlRoutes() {
     replyResult(response, httpCode(result.error), result.message,
                 {{"path", result.status.path}, {"active", result.status.active}});
   });
-  server.Post("/api/recording/stop", [this](const httplib::Request& request,
-                                            httplib::Response& response) {
-    if (!authorized(request, response)) return;
-    const RecordingResult result = pipeline_.stopRecording();
-    replyResult(response, httpCode(result.error), result.message,
-                {{"path", result.status.path}, {"frame_sets", result.status.frame_sets}});
-  });
-  server.Post("/api/reacquire", [this](const httplib::Request& request,
-                                       httplib::Response& response) {
-    if (!authorized(request, response)) return;
-    switch (pipeline_.reacquire()) {
-      case Pipeline::ReacquireError::kReplay:
-        return replyResult(response, 409, "replay: the poses depend on the recording alone");
-      case Pipeline::ReacquireError::kCannotPlace:
-        return replyResult(response, 409, "this body's root cannot be placed");
-      case Pipeline::ReacquireError::kNone:
-        break;
-    }
-    logInfo() << "reacquisition requested by the web view";
-    replyResult(response, 200, "finding the subject again");
-  });
+  server.Post(
+      "/api/recording/stop", [this](const httplib::Request& request, httplib::Response& response) {
+        if (!authorized(request, response)) return;
+        const RecordingResult result = pipeline_.stopRecording();
+        replyResult(response, httpCode(result.error), result.message,
+                    {{"path", result.status.path}, {"frame_sets", result.status.frame_sets}});
+      });
+  server.Post(
+      "/api/reacquire", [this](const httplib::Request& request, httplib::Response& response) {
+        if (!authorized(request, response)) return;
+        switch (pipeline_.reacquire()) {
+          case Pipeline::ReacquireError::kReplay:
+            return replyResult(response, 409, "replay: the poses depend on the recording alone");
+          case Pipeline::ReacquireError::kCannotPlace:
+            return replyResult(response, 409, "this body's root cannot be placed");
+          case Pipeline::ReacquireError::kNone:
+            break;
+        }
+        logInfo() << "reacquisition requested by the web view";
+        replyResult(response, 200, "finding the subject again");
+      });
 }
 
 }  // namespace mocap

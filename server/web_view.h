@@ -35,8 +35,7 @@ namespace mocap {
 class WebView final : public PoseSubscriber {
  public:
   // Everything is borrowed and must outlive the view.
-  WebView(const ServerConfig& config, Pipeline& pipeline, const Rig& rig,
-          PosePublisher& publisher);
+  WebView(const ServerConfig& config, Pipeline& pipeline, const Rig& rig, PosePublisher& publisher);
   ~WebView() override;
   WebView(const WebView&) = delete;
   WebView& operator=(const WebView&) = delete;

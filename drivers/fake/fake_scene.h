@@ -14,11 +14,11 @@
 #include <opencv2/core/mat.hpp>
 
 #include "drivers/status.h"
+#include "tracker/likelihood/raster.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
 #include "tracker/model/kinematics.h"
 #include "tracker/motion/motion.h"
-#include "tracker/likelihood/raster.h"
 #include "tracker/sim/person_layer.h"
 #include "tracker/sim/scene.h"
 #include "tracker/sim/subject.h"
@@ -85,8 +85,8 @@ struct FakeSceneOptions {
 };
 
 // The rig used when none is given: for a body taller than half a metre the lab rig framed on the
-// motion's path (labRig in tracker/sim/scene.h), otherwise one framed for a hand-sized model (the hand
-// experiment's rig), so the default scene fills the image.
+// motion's path (labRig in tracker/sim/scene.h), otherwise one framed for a hand-sized model (the
+// hand experiment's rig), so the default scene fills the image.
 Rig defaultFakeRig(const BodyModel& model, const Motion& motion, int cameras, int width,
                    int height);
 

@@ -5,8 +5,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "tracker/vision/silhouette_extractor.h"
 #include "tracker/sim/test_scene.h"
+#include "tracker/vision/silhouette_extractor.h"
 
 namespace mocap {
 namespace {

@@ -9,10 +9,10 @@
 
 #include <benchmark/benchmark.h>
 
-#include "tracker/motion/bvh.h"
 #include "tracker/experiments/hand_experiment.h"
 #include "tracker/experiments/human_experiment.h"
 #include "tracker/model/kinematics.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/motion.h"
 #include "tracker/motion/retarget.h"
 #include "tracker/sim/scene.h"

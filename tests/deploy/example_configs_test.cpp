@@ -101,7 +101,8 @@ TEST(ExampleConfigsTest, FakeIsTheEmbeddedDefaultSpeltOut) {
   EXPECT_TRUE(config.calibration_file.empty());
   EXPECT_TRUE(config.body_model.empty());
   EXPECT_EQ(config.tracker.method, embedded.tracker.method);
-  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, embedded.tracker.filter.evaluations_per_frame);
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame,
+            embedded.tracker.filter.evaluations_per_frame);
   EXPECT_EQ(config.tracker.threads, embedded.tracker.threads);
   EXPECT_EQ(config.listen, embedded.listen);
 }
@@ -200,7 +201,8 @@ TEST(ExampleConfigsTest, V4l2TwoUsbCamerasAt800x600) {
     EXPECT_EQ(camera.fps, 25.0);
   }
   EXPECT_EQ(config.body_model, "builtin:human");
-  EXPECT_EQ(config.tracker.filter.evaluations_per_frame, 2000);  // the people defaults, on two threads
+  EXPECT_EQ(config.tracker.filter.evaluations_per_frame,
+            2000);  // the people defaults, on two threads
   EXPECT_EQ(config.tracker.threads, 2);
   expectRigFits(config);
 }

@@ -397,11 +397,11 @@ TEST(ConfigTest, TheSceneSubjectAndHowTheSceneMotionIsRead) {
   EXPECT_FALSE(plain.scene_subject_seed);
   EXPECT_EQ(plain.scene_motion_load.units, BvhUnits::kAuto);
   EXPECT_TRUE(plain.scene_motion_load.joint_map.empty());
-  const ServerConfig product =
-      parseConfig(cameras + "scene_motion: " + walk +
-                      "\nscene_subject_seed: 12\nscene_motion_units: cmu\n"
-                      "scene_motion_joint_map: " + map + "\n",
-                  "t.yaml", ".");
+  const ServerConfig product = parseConfig(cameras + "scene_motion: " + walk +
+                                               "\nscene_subject_seed: 12\nscene_motion_units: cmu\n"
+                                               "scene_motion_joint_map: " +
+                                               map + "\n",
+                                           "t.yaml", ".");
   ASSERT_TRUE(product.scene_subject_seed);
   EXPECT_EQ(*product.scene_subject_seed, 12u);
   EXPECT_EQ(product.scene_motion_load.units, BvhUnits::kCmu);
@@ -416,7 +416,8 @@ TEST(ConfigTest, TheSceneSubjectAndHowTheSceneMotionIsRead) {
       {cameras + "scene_subject_seed: 3\n",
        "test.yaml:3: scene_subject_seed: needs a scene_motion (the fake scene playing a recorded "
        "subject)"},
-      {cameras + "scene_motion_units: cm\n", "test.yaml:3: scene_motion_units: needs a scene_motion"},
+      {cameras + "scene_motion_units: cm\n",
+       "test.yaml:3: scene_motion_units: needs a scene_motion"},
       {cameras + "scene_motion_joint_map: " + map + "\n",
        "test.yaml:3: scene_motion_joint_map: needs a scene_motion"},
       {motion + "scene_subject_seed: -1\n", "test.yaml:4: scene_subject_seed: must be between 0"},

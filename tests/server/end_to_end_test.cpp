@@ -25,11 +25,11 @@
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
 #include "server/tls_test_support.h"
-#include "tracker/search/body_size.h"
 #include "tracker/model/builtin_models.h"
-#include "tracker/motion/bvh.h"
 #include "tracker/model/kinematics.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/retarget.h"
+#include "tracker/search/body_size.h"
 
 namespace mocap {
 namespace {
@@ -39,9 +39,9 @@ using test::EndToEndTest;
 using test::freshDirectory;
 using test::mocapctl;
 using test::python;
-using test::startServer;
 using test::record;
 using test::startRecording;
+using test::startServer;
 
 // Window of the rate test: 10 s at 25 Hz is 250 frame sets.
 constexpr int kWindowSeconds = 10;

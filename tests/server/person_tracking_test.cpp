@@ -26,11 +26,11 @@
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
 #include "server/tls_test_support.h"
-#include "tracker/search/body_size.h"
 #include "tracker/model/builtin_models.h"
-#include "tracker/motion/bvh.h"
 #include "tracker/model/kinematics.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/retarget.h"
+#include "tracker/search/body_size.h"
 
 namespace mocap {
 namespace {

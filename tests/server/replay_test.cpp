@@ -24,11 +24,11 @@
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
 #include "server/tls_test_support.h"
-#include "tracker/search/body_size.h"
 #include "tracker/model/builtin_models.h"
-#include "tracker/motion/bvh.h"
 #include "tracker/model/kinematics.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/retarget.h"
+#include "tracker/search/body_size.h"
 
 namespace mocap {
 namespace {
@@ -132,7 +132,8 @@ TEST_F(EndToEndTest, ReplayTracksTheBodyAndSettingsTheSessionWasRecordedWith) {
   const fs::path root = freshDirectory("replay_body");
   {
     ServerConfig config = walkingPersonConfig();
-    config.tracker.filter.evaluations_per_frame = 600;  // not the replay configuration's 375, nor the people's 2000
+    config.tracker.filter.evaluations_per_frame =
+        600;  // not the replay configuration's 375, nor the people's 2000
     config.recording_directory = fs::canonical(root).string();
     std::unique_ptr<MocapServer> server = startServer(config);
     ASSERT_TRUE(server);

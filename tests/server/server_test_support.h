@@ -261,7 +261,7 @@ inline ServerConfig walkingPersonConfig() {
 // The first `count` poses of a new stream that `keep` accepts (all by default), fewer only if the
 // stream ends.
 inline std::vector<v1::Pose> readPoses(v1::MocapService::Stub& stub, std::size_t count,
-                                const std::function<bool(const v1::Pose&)>& keep = {}) {
+                                       const std::function<bool(const v1::Pose&)>& keep = {}) {
   grpc::ClientContext context;
   auto reader = stub.StreamPoses(&context, v1::StreamPosesRequest());
   std::vector<v1::Pose> poses;

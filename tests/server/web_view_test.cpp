@@ -134,9 +134,9 @@ TEST_F(WebViewTest, AJpegPerCameraOfTheCameraSize) {
     ASSERT_TRUE(image);
     ASSERT_EQ(image->status, 200);
     EXPECT_EQ(image->get_header_value("Content-Type"), "image/jpeg");
-    const cv::Mat decoded = cv::imdecode(
-        cv::Mat(1, static_cast<int>(image->body.size()), CV_8U, image->body.data()),
-        cv::IMREAD_COLOR);
+    const cv::Mat decoded =
+        cv::imdecode(cv::Mat(1, static_cast<int>(image->body.size()), CV_8U, image->body.data()),
+                     cv::IMREAD_COLOR);
     ASSERT_FALSE(decoded.empty());
     EXPECT_EQ(decoded.cols, 780);
     EXPECT_EQ(decoded.rows, 580);
@@ -180,10 +180,11 @@ TEST_F(WebViewTest, UnknownPathsAndTraversalAreRefused) {
        {"/../../../../etc/passwd", "/three/../../../../../etc/passwd",
         "/%2e%2e/%2e%2e/%2e%2e/etc/passwd", "/three/%2e%2e/%2e%2e/%2e%2e/%2e%2e/etc/passwd",
         "/three/..%2f..%2f..%2fbuild/three.min.js", "/three/../build/three.min.js"}) {
-    const std::string answer =
-        rawRequest(server_->webPort(), "GET " + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+    const std::string answer = rawRequest(
+        server_->webPort(), "GET " + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
     ASSERT_FALSE(answer.empty()) << path;
-    EXPECT_EQ(answer.find("HTTP/1.1 200"), std::string::npos) << path << ": " << answer.substr(0, 80);
+    EXPECT_EQ(answer.find("HTTP/1.1 200"), std::string::npos)
+        << path << ": " << answer.substr(0, 80);
     EXPECT_EQ(answer.find("root:"), std::string::npos) << path;
   }
 }
@@ -246,9 +247,10 @@ TEST_F(WebViewTest, DisabledServesNothing) {
   ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length), 0);
   const int port = ntohs(address.sin_port);
   close(fd);
-  ServerConfig config = parseConfig(std::string(kDefaultConfigYaml) + "web: {enabled: false, listen: 127.0.0.1:" +
-                                        std::to_string(port) + "}\n",
-                                    "<test>", ".");
+  ServerConfig config =
+      parseConfig(std::string(kDefaultConfigYaml) +
+                      "web: {enabled: false, listen: 127.0.0.1:" + std::to_string(port) + "}\n",
+                  "<test>", ".");
   config.listen = "127.0.0.1:0";
   config.log_level = LogLevel::kWarning;
   EXPECT_FALSE(config.web.enabled);
@@ -282,7 +284,8 @@ TEST_F(WebViewTest, DISABLED_ChromiumShowsTheOutlineOverTheSubjectAndThe3dView) 
   if (browser.empty()) GTEST_SKIP() << "chromium is not installed (deploy/install-deps)";
   start();
   std::this_thread::sleep_for(std::chrono::seconds(1));
-  const fs::path dir = fs::temp_directory_path() / ("mocap_web_chromium_" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("mocap_web_chromium_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir / "profile");
   const fs::path shot = dir / "web_view.png";
@@ -293,13 +296,15 @@ TEST_F(WebViewTest, DISABLED_ChromiumShowsTheOutlineOverTheSubjectAndThe3dView) 
       " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run"
       " --disable-background-networking --disable-component-update --disable-sync"
       " --use-gl=angle --use-angle=swiftshader --enable-unsafe-swiftshader"
-      " --user-data-dir=" + (dir / "profile").string() + " --screenshot=" + shot.string() +
+      " --user-data-dir=" +
+      (dir / "profile").string() + " --screenshot=" + shot.string() +
       " --window-size=1280,900 --timeout=10000 http://127.0.0.1:" +
       std::to_string(server_->webPort()) + "/ >" + (dir / "chromium.log").string() + " 2>&1";
   EXPECT_EQ(std::system(command.c_str()), 0) << command;
   const cv::Mat image = cv::imread(shot.string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(image.empty()) << "no screenshot; see " << (dir / "chromium.log");
-  if (const char* keep = std::getenv("MOCAP_WEB_SCREENSHOT")) fs::copy_file(shot, keep, fs::copy_options::overwrite_existing);
+  if (const char* keep = std::getenv("MOCAP_WEB_SCREENSHOT"))
+    fs::copy_file(shot, keep, fs::copy_options::overwrite_existing);
 
   // The camera images fill the left 780 pixels: the outline must be there and lie on the tinted
   // silhouette (within a few pixels, the width of the drawn line).
@@ -343,8 +348,9 @@ TEST(WebConfigTest, KeysAreChecked) {
   EXPECT_EQ(moved.web.listen, "127.0.0.1:9000");
   EXPECT_THROW(parseConfig(std::string(kDefaultConfigYaml) + "web: {port: 9000}\n", "<t>", "."),
                ConfigError);
-  EXPECT_THROW(parseConfig(std::string(kDefaultConfigYaml) + "web: {listen: nowhere}\n", "<t>", "."),
-               ConfigError);
+  EXPECT_THROW(
+      parseConfig(std::string(kDefaultConfigYaml) + "web: {listen: nowhere}\n", "<t>", "."),
+      ConfigError);
 }
 
 }  // namespace

@@ -7,10 +7,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tracker/motion/bvh.h"
 #include "tracker/cli/args.h"
 #include "tracker/experiments/commands.h"
 #include "tracker/experiments/human_experiment.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/retarget.h"
 
 namespace mocap {

@@ -29,12 +29,11 @@ Rig truthRig(int cameras, int width, int height, const Eigen::Vector3d& centre) 
   for (int i = 0; i < cameras; ++i) {
     const double azimuth = cameras == 1 ? 0.0 : (-60.0 + 120.0 * i / (cameras - 1)) * M_PI / 180;
     const Eigen::Vector3d eye =
-        centre + Eigen::Vector3d(2.4 * std::sin(azimuth), -2.4 * std::cos(azimuth),
-                                 1.4 + 0.2 * (i % 2));
-    CameraModel camera = CameraModel::lookAt("cam" + std::to_string(i), eye,
-                                             centre + Eigen::Vector3d(0, 0, 0.5),
-                                             Eigen::Vector3d::UnitZ(), width, height,
-                                             (700.0 + 40 * i) * height / 580.0);
+        centre +
+        Eigen::Vector3d(2.4 * std::sin(azimuth), -2.4 * std::cos(azimuth), 1.4 + 0.2 * (i % 2));
+    CameraModel camera = CameraModel::lookAt(
+        "cam" + std::to_string(i), eye, centre + Eigen::Vector3d(0, 0, 0.5),
+        Eigen::Vector3d::UnitZ(), width, height, (700.0 + 40 * i) * height / 580.0);
     camera.fy = camera.fx * 1.002;
     camera.cx += 6.0 * i - 8;
     camera.cy += 5.0 - 3.0 * i;
@@ -304,8 +303,7 @@ nlohmann::json compareWithTruth(const Rig& truth, const CalibrationResult& resul
     const double f = 50 * (std::abs(e.fx - t.fx) / t.fx + std::abs(e.fy - t.fy) / t.fy);
     const double c = std::hypot(e.cx - t.cx, e.cy - t.cy);
     const double d = 1000 * (e.center() - t.center()).norm();
-    const double a =
-        Eigen::AngleAxisd(e.rotation * t.rotation.transpose()).angle() * 180 / M_PI;
+    const double a = Eigen::AngleAxisd(e.rotation * t.rotation.transpose()).angle() * 180 / M_PI;
     focal += f;
     principal += c;
     translation += d;

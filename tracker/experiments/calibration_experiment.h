@@ -17,8 +17,8 @@ namespace mocap {
 
 struct CalibrationExperimentConfig {
   int cameras = 4;
-  int views = 30;          // board views including the floor view
-  double noise_px = 0.2;   // Gaussian noise added to every detected corner, pixels
+  int views = 30;         // board views including the floor view
+  double noise_px = 0.2;  // Gaussian noise added to every detected corner, pixels
   uint64_t seed = 1;
   BoardType board = BoardType::kCheckerboard;
   std::optional<BoardSpec> custom_board;  // replaces experimentBoard(board)
@@ -33,10 +33,10 @@ BoardSpec experimentBoard(BoardType type);
 
 struct RenderedCalibration {
   BoardSpec board;
-  Rig truth;                                   // world = the floor board's frame, Z up
+  Rig truth;                                             // world = the floor board's frame, Z up
   std::map<std::string, Eigen::Isometry3d> board_poses;  // true board -> world, by view name
   std::vector<CameraObservations> observations;
-  std::vector<RejectedView> rejected;          // views where the detector found no board
+  std::vector<RejectedView> rejected;  // views where the detector found no board
   // Detected corners (before the added noise) against the true corners projected by the true
   // camera: the detector's own error.
   double detector_rms_px = 0;

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <iostream>
 
-#include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/commands.h"
+#include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/metrics.h"
 #include "tracker/model/kinematics.h"
 #include "tracker/motion/motion.h"

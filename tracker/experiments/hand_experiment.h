@@ -7,10 +7,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tracker/filters/filter.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/builtin_models.h"
 #include "tracker/model/camera.h"
-#include "tracker/filters/filter.h"
 
 namespace mocap {
 

@@ -14,16 +14,16 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tracker/search/acquire.h"
-#include "tracker/search/body_size.h"
-#include "tracker/motion/bvh.h"
-#include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/commands.h"
+#include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/human_scene.h"
 #include "tracker/experiments/human_scoring.h"
 #include "tracker/likelihood/full_body.h"
 #include "tracker/model/kinematics.h"
+#include "tracker/motion/bvh.h"
 #include "tracker/motion/retarget.h"
+#include "tracker/search/acquire.h"
+#include "tracker/search/body_size.h"
 #include "tracker/sim/scene.h"
 
 namespace mocap {
@@ -376,15 +376,18 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"seed", config.seed},
       {"threads", pool.size()},
       {"injection", options.injection.share},
-      {"inject", options.injection.redraw == InjectionOptions::Redraw::kSegment ? "segment" : "dof"},
+      {"inject",
+       options.injection.redraw == InjectionOptions::Redraw::kSegment ? "segment" : "dof"},
       {"refine", refined ? options.refine.share : 0.0},
       {"refine_max", refined ? options.refine.max_evaluations : 0},
       {"refine_hold", refined && options.refine.hold},
       {"refine_plant", refined && options.refine.plant},
       {"refine_unexplained", refined && options.refine.unexplained},
       {"refine_swap", refined && options.refine.swap.enabled},
-      {"refine_swap_knees_only", refined && options.refine.swap.enabled && options.refine.swap.knees_only},
-      {"refine_swap_margin", refined && options.refine.swap.enabled ? options.refine.swap.margin : 0.0},
+      {"refine_swap_knees_only",
+       refined && options.refine.swap.enabled && options.refine.swap.knees_only},
+      {"refine_swap_margin",
+       refined && options.refine.swap.enabled ? options.refine.swap.margin : 0.0},
       {"refine_restart_share", refined ? options.refine.restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / scored},
       {"segment_renders_per_frame", static_cast<double>(renders) / scored},

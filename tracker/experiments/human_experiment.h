@@ -12,10 +12,10 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core/mat.hpp>
 
+#include "tracker/filters/filter.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/builtin_models.h"
 #include "tracker/model/camera.h"
-#include "tracker/filters/filter.h"
 #include "tracker/motion/bvh.h"
 #include "tracker/motion/motion.h"
 #include "tracker/sim/scene.h"

@@ -135,9 +135,7 @@ std::vector<Eigen::Vector3d> HumanScene::truthPoints(const Eigen::VectorXd& q) {
   return pointPositions(model_, kinematics_);
 }
 
-const SubjectParams* HumanScene::subjectParams() const {
-  return params_ ? &*params_ : nullptr;
-}
+const SubjectParams* HumanScene::subjectParams() const { return params_ ? &*params_ : nullptr; }
 
 std::optional<BodyProportions> HumanScene::subjectProportions(const BodyModel& shipped) const {
   if (!subject_renderer_) return std::nullopt;

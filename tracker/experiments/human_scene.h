@@ -65,7 +65,7 @@ class HumanScene {
   Rig rig_;
   HumanSceneOptions options_;
   std::optional<SubjectParams> params_;
-  std::unique_ptr<SceneRenderer> model_renderer_;      // no subject
+  std::unique_ptr<SceneRenderer> model_renderer_;  // no subject
   std::unique_ptr<SubjectSceneRenderer> subject_renderer_;
   KinematicsData kinematics_;
   // Extraction: one room and one extractor per camera, and the person's layers they paint.

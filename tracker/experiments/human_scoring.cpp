@@ -72,7 +72,6 @@ double legsSwappedError(const Limb& left, const Limb& right,
   return sum / (2 * left.points.size());
 }
 
-
 int longestLoss(const std::vector<double>& frame_error) {
   int longest = 0, run = 0;
   for (double error : frame_error) {

@@ -21,7 +21,8 @@ void dumpFrame(const std::string& dir, int t, const TestSceneFrame& frame, const
   std::filesystem::create_directories(dir);
   const std::string stem = dir + "/frame_" + std::to_string(t);
   if (!cv::imwrite(stem + "_image.png", frame.image) || !cv::imwrite(stem + "_mask.png", mask) ||
-      !cv::imwrite(stem + "_body.png", frame.body) || !cv::imwrite(stem + "_shadow.png", frame.shadow))
+      !cv::imwrite(stem + "_body.png", frame.body) ||
+      !cv::imwrite(stem + "_shadow.png", frame.shadow))
     throw std::runtime_error(dir + ": cannot write PNG files");
 }
 

@@ -1,7 +1,7 @@
 // The annealed particle filter (Deutscher, Blake & Reid, CVPR 2000) as a baseline. Each frame runs
 // M annealing layers over N = budget / M particles. The first layer draws from the same uniform
-// proposal as the other filters; every layer weighs the particles by the full-body likelihood raised
-// to a power chosen so that about half of them survive (the paper's particle survival rate
+// proposal as the other filters; every layer weighs the particles by the full-body likelihood
+// raised to a power chosen so that about half of them survive (the paper's particle survival rate
 // alpha = 0.5), resamples, and diffuses with Gaussian noise that shrinks by alpha per layer. The
 // estimate is the weighted mean of the last layer.
 #include <cmath>
@@ -92,7 +92,8 @@ class AnnealedFilter final : public PoseFilter {
   }
 
  private:
-  // Gaussian noise with a standard deviation of `scale` times each DOF's speed limit, kept in limits.
+  // Gaussian noise with a standard deviation of `scale` times each DOF's speed limit, kept in
+  // limits.
   void diffuseGaussian(Eigen::VectorXd& q, double scale) {
     std::normal_distribution<double> normal(0.0, 1.0);
     for (std::size_t d = 0; d < model_.dofs.size(); ++d) {

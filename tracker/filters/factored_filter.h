@@ -62,8 +62,8 @@ class FactoredFilter final : public PoseFilter {
 
   // The look-ahead (factored_lookahead.cpp). Sets candidate i's selection, the rank of a layer
   // with a look-ahead: the whole body with the candidate's segment and subtree.
-  void rankByLookahead(const FactoredLayer& layer, int i,
-                       const std::vector<SilhouetteMask>& masks, WorkerScratch& scratch);
+  void rankByLookahead(const FactoredLayer& layer, int i, const std::vector<SilhouetteMask>& masks,
+                       WorkerScratch& scratch);
   // Places every segment of parent particle p that is neither placed this frame nor in
   // the layer segment's subtree at its previous relative pose, and counts them after the placed
   // ones. The same for all of p's candidates, so done once per parent.

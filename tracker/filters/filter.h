@@ -14,12 +14,12 @@
 
 #include <Eigen/Core>
 
-#include "tracker/model/body_model.h"
-#include "tracker/model/camera.h"
-#include "tracker/likelihood/likelihood.h"
-#include "tracker/likelihood/silhouette_mask.h"
 #include "tracker/filters/filter_options.h"
 #include "tracker/filters/worker_pool.h"
+#include "tracker/likelihood/likelihood.h"
+#include "tracker/likelihood/silhouette_mask.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/camera.h"
 
 namespace mocap {
 

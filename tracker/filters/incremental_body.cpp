@@ -46,7 +46,8 @@ PixelCounts IncrementalBodyEvaluator::reset(const Eigen::VectorXd& q,
     throw std::invalid_argument("incremental body evaluator: expected one mask per camera");
   for (std::size_t c = 0; c < cameras_; ++c)
     if (masks[c].width() != rig_[c].width || masks[c].height() != rig_[c].height)
-      throw std::invalid_argument("incremental body evaluator: mask size differs from the camera's");
+      throw std::invalid_argument(
+          "incremental body evaluator: mask size differs from the camera's");
   pending_ = false;
   rest_valid_ = false;
   masks_ = &masks;

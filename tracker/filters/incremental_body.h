@@ -1,23 +1,24 @@
 // The full-body likelihood (full_body.h) kept up to date across poses that differ in a few DOFs,
 // for the factored filter's refinement: a trial re-places and re-rasterizes only the segments those
-// DOFs move (their subtrees) and counts only them, with exactly the counts FullBodyEvaluator::evaluate
-// gives for the same pose.
+// DOFs move (their subtrees) and counts only them, with exactly the counts
+// FullBodyEvaluator::evaluate gives for the same pose.
 //
 // The full-body counts do not depend on the segments' order: matched = silhouette pixels covered by
 // the union of all footprints, outside and area = sums over the footprints. So with the moved
 // segments M and the rest R, matched = matched(R) + what M adds over R, the masked chain of M's
 // footprints with R's as explained. matched(R) follows from the current pose's counts minus the
-// current M's chain over R; it holds while R stands still, which it does for every trial of the same
-// DOFs (the refinement tries each DOF both ways, accepted or not), so it is counted once per set.
+// current M's chain over R; it holds while R stands still, which it does for every trial of the
+// same DOFs (the refinement tries each DOF both ways, accepted or not), so it is counted once per
+// set.
 #pragma once
 
 #include <vector>
 
+#include "tracker/filters/worker_pool.h"
+#include "tracker/likelihood/likelihood.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
 #include "tracker/model/kinematics.h"
-#include "tracker/likelihood/likelihood.h"
-#include "tracker/filters/worker_pool.h"
 
 namespace mocap {
 
@@ -76,7 +77,9 @@ class IncrementalBodyEvaluator {
   std::size_t slotIndex(int k, std::size_t c, int slot) const {
     return (static_cast<std::size_t>(k) * 2 + slot) * cameras_ + c;
   }
-  Footprint& footprint(int k, std::size_t c, int slot) { return footprints_[slotIndex(k, c, slot)]; }
+  Footprint& footprint(int k, std::size_t c, int slot) {
+    return footprints_[slotIndex(k, c, slot)];
+  }
 
   const BodyModel& model_;
   const Rig& rig_;
@@ -84,21 +87,21 @@ class IncrementalBodyEvaluator {
   std::size_t cameras_ = 0;
   int max_rows_ = 0;
   WorkerPool* pool_;
-  std::vector<ShapeRasterizer> rasterizers_;  // one per worker
+  std::vector<ShapeRasterizer> rasterizers_;        // one per worker
   std::vector<long> camera_matched_, camera_rest_;  // per camera, scratch of reset and trial()
-  std::vector<int> drawn_;        // segments with a shape, in model order
-  std::vector<int> drawn_index_;  // per segment: index into drawn_, or -1
+  std::vector<int> drawn_;                          // segments with a shape, in model order
+  std::vector<int> drawn_index_;                    // per segment: index into drawn_, or -1
 
   Eigen::VectorXd q_, trial_q_;
-  KinematicsData kinematics_;                 // placed at the current pose, or the trial's
+  KinematicsData kinematics_;                   // placed at the current pose, or the trial's
   std::vector<Eigen::Isometry3d> saved_world_;  // per moved segment: its pose before the trial
-  std::vector<RowSpan> spans_;                // per drawn segment, 2 slots, per camera, max_rows
-  std::vector<Footprint> footprints_;         // the same layout
+  std::vector<RowSpan> spans_;                  // per drawn segment, 2 slots, per camera, max_rows
+  std::vector<Footprint> footprints_;           // the same layout
   // The same layout: each footprint's own area and silhouette pixels (no chain), so the current
   // pose's moved set is recounted over a new rest on the rows the rest covers only.
   std::vector<PixelCounts> footprint_counts_;
-  std::vector<int> slot_;                     // per drawn segment: the current pose's slot
-  PixelCounts counts_, trial_counts_;         // the whole body at the current pose, at the trial
+  std::vector<int> slot_;              // per drawn segment: the current pose's slot
+  PixelCounts counts_, trial_counts_;  // the whole body at the current pose, at the trial
 
   bool pending_ = false;
   std::vector<char> moved_flag_;  // per segment, scratch of trial()

@@ -33,8 +33,9 @@ PixelCounts FullBodyEvaluator::evaluate(const Eigen::VectorXd& q,
     const int s = drawn_[k];
     for (std::size_t c = 0; c < rig_.size(); ++c)
       spans[c] = &scratch.spans[(k * rig_.size() + c) * max_rows_];
-    total += observeSegment(model_.segments[s].shape, scratch.kinematics.world[s], rig_, masks,
-                            scratch.rasterizer, spans, scratch.footprints.data(), scratch.explained);
+    total +=
+        observeSegment(model_.segments[s].shape, scratch.kinematics.world[s], rig_, masks,
+                       scratch.rasterizer, spans, scratch.footprints.data(), scratch.explained);
     for (std::size_t c = 0; c < rig_.size(); ++c)
       scratch.explained[c].push_back(scratch.footprints[c]);
   }

@@ -5,10 +5,10 @@
 
 #include <vector>
 
+#include "tracker/likelihood/likelihood.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
 #include "tracker/model/kinematics.h"
-#include "tracker/likelihood/likelihood.h"
 
 namespace mocap {
 

@@ -1,7 +1,8 @@
 // The factored silhouette likelihood (paper §6.2). A segment's footprint is compared with the
 // silhouette minus the pixels already explained by the segments observed before it in the same
 // particle, so a pixel is credited once. log P(Y_i | X_i, pre(Y_i)) = beta * (matched - outside):
-// matched = newly explained silhouette pixels, outside = footprint pixels off the silhouette. The product over segments is the full-body likelihood Condensation uses.
+// matched = newly explained silhouette pixels, outside = footprint pixels off the silhouette. The
+// product over segments is the full-body likelihood Condensation uses.
 #pragma once
 
 #include <vector>
@@ -15,8 +16,8 @@ namespace mocap {
 inline constexpr std::size_t kMaxCameras = 16;
 
 struct LikelihoodParams {
-  double beta = 0.02;          // log-likelihood per pixel
-  int points_per_circle = 8;   // outline tessellation used by the tracker
+  double beta = 0.02;         // log-likelihood per pixel
+  int points_per_circle = 8;  // outline tessellation used by the tracker
 };
 
 struct PixelCounts {
@@ -46,8 +47,7 @@ PixelCounts recountFootprint(const SilhouetteMask& mask, const Footprint& footpr
                              int explained_count);
 
 inline double logLikelihood(const LikelihoodParams& params, const PixelCounts& counts) {
-  return params.beta *
-         (static_cast<double>(counts.matched) - static_cast<double>(counts.outside));
+  return params.beta * (static_cast<double>(counts.matched) - static_cast<double>(counts.outside));
 }
 
 }  // namespace mocap

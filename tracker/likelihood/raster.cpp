@@ -101,8 +101,8 @@ bool ShapeRasterizer::outline(const Shape& shape, const Eigen::Isometry3d& pose,
     return true;
   }
   if (shape.type == ShapeType::kEllipsoid) {
-    // In the frame where the ellipsoid is the unit sphere, the contour seen from the camera centre o
-    // is the circle {u : u.o = 1}: centre o/|o|^2, radius sqrt(1 - 1/|o|^2), normal o.
+    // In the frame where the ellipsoid is the unit sphere, the contour seen from the camera centre
+    // o is the circle {u : u.o = 1}: centre o/|o|^2, radius sqrt(1 - 1/|o|^2), normal o.
     const Eigen::Vector3d centre = origin + rot * shape.center;
     const Eigen::Vector3d o = (rot.transpose() * -centre).cwiseQuotient(shape.radii);
     const double d2 = o.squaredNorm();
@@ -337,8 +337,8 @@ Footprint ShapeRasterizer::scanConvexHull(const CameraModel& camera, RowSpan* bu
   }
   // Rows whose centre lies in [ytop, ybottom), top-left rule.
   const int y0 = std::max(0, static_cast<int>(std::ceil(hull_[top].y())));
-  const int y1 = std::min({camera.height, kMaxImageRows,
-                           static_cast<int>(std::ceil(hull_[bottom].y()))});
+  const int y1 =
+      std::min({camera.height, kMaxImageRows, static_cast<int>(std::ceil(hull_[bottom].y()))});
   if (y0 >= y1) return f;
 
   // Each chain from the top vertex to the bottom vertex (one forward, one backward) gives an x for

@@ -42,11 +42,11 @@ class ShapeRasterizer {
  public:
   explicit ShapeRasterizer(int points_per_circle);
 
-  // Rasterizes `shape` placed at `pose` (segment frame -> world) in `camera`, writing the spans into
-  // `buffer` (capacity: camera.height rows). Returns an empty footprint if the shape has no outline,
-  // lies behind the camera or outside the image.
-  Footprint rasterize(const Shape& shape, const Eigen::Isometry3d& pose,
-                      const CameraModel& camera, RowSpan* buffer);
+  // Rasterizes `shape` placed at `pose` (segment frame -> world) in `camera`, writing the spans
+  // into `buffer` (capacity: camera.height rows). Returns an empty footprint if the shape has no
+  // outline, lies behind the camera or outside the image.
+  Footprint rasterize(const Shape& shape, const Eigen::Isometry3d& pose, const CameraModel& camera,
+                      RowSpan* buffer);
 
   // The projected outline polygon of the last call (convex hull, pixels), for drawing and tests.
   const std::vector<Eigen::Vector2d>& lastHull() const { return hull_; }
@@ -60,7 +60,7 @@ class ShapeRasterizer {
                        RowSpan* buffer);
   static Footprint trim(RowSpan* buffer, int y0, int first, int last, int xmin, int xmax);
 
-  std::vector<double> cos_, sin_;  // unit circle, area-matched radius folded in
+  std::vector<double> cos_, sin_;           // unit circle, area-matched radius folded in
   std::vector<Eigen::Vector2d> projected_;  // 2 points per circle point; the first count used
   int projected_count_ = 0;
   std::vector<Eigen::Vector2d> hull_;

@@ -19,7 +19,8 @@ class SilhouetteMask {
 
   int width() const { return width_; }
   int height() const { return height_; }
-  // Foreground pixels of row y in columns [x0, x1); requires 0 <= x0 <= x1 <= width, 0 <= y < height.
+  // Foreground pixels of row y in columns [x0, x1); requires 0 <= x0 <= x1 <= width, 0 <= y <
+  // height.
   int count(int y, int x0, int x1) const { return row(y).count(x0, x1); }
 
  private:
@@ -27,7 +28,7 @@ class SilhouetteMask {
     // Bit i + 1 = pixel 64 * word + i: shifted, so a lookup keeps the pixels below x with one
     // shift. Pixel 63 is never needed (x = 64 * word + 64 looks up the next word).
     uint64_t bits = 0;
-    uint32_t before = 0;   // foreground pixels of the row before this word
+    uint32_t before = 0;  // foreground pixels of the row before this word
   };
 
  public:

@@ -365,7 +365,8 @@ void emitShape(YAML::Emitter& out, const Shape& shape) {
     out << YAML::Key << "radius_start" << YAML::Value << shape.radius_start;
     out << YAML::Key << "radius_end" << YAML::Value << shape.radius_end;
   } else {
-    out << YAML::Key << "type" << YAML::Value << "ellipsoid" << YAML::Key << "center" << YAML::Value;
+    out << YAML::Key << "type" << YAML::Value << "ellipsoid" << YAML::Key << "center"
+        << YAML::Value;
     emitVec3(out, shape.center);
     out << YAML::Key << "radii" << YAML::Value;
     emitVec3(out, shape.radii);
@@ -412,7 +413,8 @@ std::string formatBodyModel(const BodyModel& model) {
   for (std::size_t s = 0; s < model.segments.size(); ++s) {
     const Segment& seg = model.segments[s];
     out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << seg.name;
-    if (seg.parent >= 0) out << YAML::Key << "parent" << YAML::Value << model.segments[seg.parent].name;
+    if (seg.parent >= 0)
+      out << YAML::Key << "parent" << YAML::Value << model.segments[seg.parent].name;
     out << YAML::Key << "offset" << YAML::Value;
     emitVec3(out, seg.offset);
     if (!seg.dofs.empty()) {
@@ -509,7 +511,8 @@ BodyModel freezeAllBut(const BodyModel& model, const std::vector<std::string>& f
   }
   // A frozen DOF holds its value in every stance too.
   for (Stance& stance : out.stances)
-    for (auto& [d, value] : stance.dofs) value = std::clamp(value, out.dofs[d].min, out.dofs[d].max);
+    for (auto& [d, value] : stance.dofs)
+      value = std::clamp(value, out.dofs[d].min, out.dofs[d].max);
   if (out.fit_pose)
     for (auto& [d, value] : out.fit_pose->dofs)
       value = std::clamp(value, out.dofs[d].min, out.dofs[d].max);

@@ -19,7 +19,7 @@ struct Dof {
   std::string name;
   DofType type = DofType::kRotation;
   Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // unit, in the segment's joint frame
-  double min = 0;        // radians or metres
+  double min = 0;                                   // radians or metres
   double max = 0;
   double max_speed = 0;  // largest change in one frame (radians or metres per frame)
   int segment = -1;      // the segment this DOF moves
@@ -50,13 +50,14 @@ struct Shape {
 
 struct Segment {
   std::string name;
-  int parent = -1;                                     // -1 for the root
-  Eigen::Vector3d offset = Eigen::Vector3d::Zero();    // joint origin in the parent's frame
-  std::vector<int> dofs;                               // indices into BodyModel::dofs, applied in order
+  int parent = -1;                                   // -1 for the root
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // joint origin in the parent's frame
+  std::vector<int> dofs;  // indices into BodyModel::dofs, applied in order
   Shape shape;
 };
 
-// A named 3D point carried by a segment (a joint centre or an end site): what errors are measured on.
+// A named 3D point carried by a segment (a joint centre or an end site): what errors are measured
+// on.
 struct BodyPoint {
   std::string name;
   int segment = -1;
@@ -92,8 +93,8 @@ class BodyModel {
   bool person = false;
   std::vector<Stance> stances;  // optional, besides the neutral pose
   // Optional (`fit_pose` in the file, DOF values as a stance's): the pose a subject is asked to
-  // stand in while the body is fitted to it from the cameras (tracker/search/body_size.h); the human's
-  // is an A-pose, the arms 45 degrees out, so the cameras see their length.
+  // stand in while the body is fitted to it from the cameras (tracker/search/body_size.h); the
+  // human's is an A-pose, the arms 45 degrees out, so the cameras see their length.
   std::optional<Stance> fit_pose;
   // The camera rate (Hz) the DOFs' max_speed values are per frame of: `frame_rate` in the file,
   // 25 (the paper's rate) when absent. atFrameRate rescales a model to another rate.
@@ -123,8 +124,8 @@ BodyModel atFrameRate(const BodyModel& model, double hz);
 // A copy of `model` uniformly `factor` times as large: every offset (the root's standing height
 // included), shape and point. DOFs are unchanged, so a pose means the same angles and the same
 // root displacement on either, and both stand on the floor at the neutral pose. How a body is
-// fitted to a subject's height (tracker/search/body_size.h). Throws std::invalid_argument unless factor
-// is positive and finite.
+// fitted to a subject's height (tracker/search/body_size.h). Throws std::invalid_argument unless
+// factor is positive and finite.
 BodyModel scaledBodyModel(const BodyModel& model, double factor);
 
 // Parses a body model from YAML text. `source` names the file in error messages. Throws

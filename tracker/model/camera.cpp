@@ -43,8 +43,8 @@ Eigen::Vector3d CameraModel::backProject(const Eigen::Vector2d& pixel) const {
 }
 
 CameraModel CameraModel::lookAt(const std::string& name, const Eigen::Vector3d& eye,
-                                const Eigen::Vector3d& target, const Eigen::Vector3d& up,
-                                int width, int height, double focal_px) {
+                                const Eigen::Vector3d& target, const Eigen::Vector3d& up, int width,
+                                int height, double focal_px) {
   CameraModel cam;
   cam.name = name;
   cam.width = width;
@@ -102,8 +102,7 @@ cv::Mat readAnyMatrix(const cv::FileNode& node, const std::string& where) {
 
 cv::Mat readMatrix(const cv::FileNode& node, const std::string& where, int rows, int cols) {
   cv::Mat m = readAnyMatrix(node, where);
-  if (m.total() != static_cast<std::size_t>(rows * cols) ||
-      (m.rows != rows && m.cols != rows)) {
+  if (m.total() != static_cast<std::size_t>(rows * cols) || (m.rows != rows && m.cols != rows)) {
     throw std::runtime_error(where + ": expected " + std::to_string(rows) + "x" +
                              std::to_string(cols) + ", got " + std::to_string(m.rows) + "x" +
                              std::to_string(m.cols));
@@ -113,7 +112,8 @@ cv::Mat readMatrix(const cv::FileNode& node, const std::string& where, int rows,
 }
 
 int readPositiveInt(const cv::FileNode& node, const std::string& where) {
-  if (node.empty() || !node.isInt()) throw std::runtime_error(where + ": missing or not an integer");
+  if (node.empty() || !node.isInt())
+    throw std::runtime_error(where + ": missing or not an integer");
   const int v = static_cast<int>(node);
   if (v <= 0) throw std::runtime_error(where + ": must be positive, got " + std::to_string(v));
   return v;
@@ -153,7 +153,8 @@ Rig loadRig(const std::string& path) {
       if (d.total() < 4 || d.total() > 5)
         throw std::runtime_error(where + ".distortion_coefficients: expected 4 or 5 values");
       d.convertTo(d, CV_64F);
-      for (std::size_t j = 0; j < d.total(); ++j) c.distortion[j] = d.at<double>(static_cast<int>(j));
+      for (std::size_t j = 0; j < d.total(); ++j)
+        c.distortion[j] = d.at<double>(static_cast<int>(j));
     }
     cv::Mat r = readMatrix(node["R"], where + ".R", 3, 3);
     cv::Mat t = readMatrix(node["T"], where + ".T", 3, 1);
@@ -161,8 +162,8 @@ Rig loadRig(const std::string& path) {
       c.translation[a] = t.at<double>(a);
       for (int b = 0; b < 3; ++b) c.rotation(a, b) = r.at<double>(a, b);
     }
-    const double orthogonality = (c.rotation * c.rotation.transpose() -
-                                  Eigen::Matrix3d::Identity()).norm();
+    const double orthogonality =
+        (c.rotation * c.rotation.transpose() - Eigen::Matrix3d::Identity()).norm();
     if (orthogonality > 1e-4 || c.rotation.determinant() < 0)
       throw std::runtime_error(where + ".R: not a rotation matrix");
     rig.push_back(c);

@@ -15,7 +15,7 @@ struct CameraModel {
   int width = 780;
   int height = 580;
   double fx = 1000, fy = 1000, cx = 390, cy = 290;
-  std::array<double, 5> distortion{};  // k1, k2, p1, p2, k3
+  std::array<double, 5> distortion{};                      // k1, k2, p1, p2, k3
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // world -> camera
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();   // world -> camera, metres
 

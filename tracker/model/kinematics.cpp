@@ -32,7 +32,8 @@ void place(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& 
 }  // namespace
 
 void forwardKinematics(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& q) {
-  for (std::size_t s = 0; s < model.segments.size(); ++s) place(model, data, q, static_cast<int>(s));
+  for (std::size_t s = 0; s < model.segments.size(); ++s)
+    place(model, data, q, static_cast<int>(s));
 }
 
 void forwardKinematics(const BodyModel& model, KinematicsData& data, const Eigen::VectorXd& q,

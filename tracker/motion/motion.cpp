@@ -85,7 +85,8 @@ Motion loadMotionCsv(const std::string& path, const BodyModel& model) {
     dof_of_column[c] = d;
   }
   for (std::size_t d = 0; d < seen.size(); ++d)
-    if (!seen[d]) throw std::runtime_error(path + ":1: missing column for DOF '" + model.dofs[d].name + "'");
+    if (!seen[d])
+      throw std::runtime_error(path + ":1: missing column for DOF '" + model.dofs[d].name + "'");
 
   Motion motion;
   for (int line_no = 2; std::getline(in, line); ++line_no) {

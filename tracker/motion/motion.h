@@ -1,5 +1,5 @@
-// Joint-space motions: sequences of DOF vectors, generated from a seed or read from CSV (a header of
-// DOF names, then one row of radians/metres per frame).
+// Joint-space motions: sequences of DOF vectors, generated from a seed or read from CSV (a header
+// of DOF names, then one row of radians/metres per frame).
 #pragma once
 
 #include <cstdint>

@@ -381,8 +381,9 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   // the filter ahead kept.
   const bool lost = lostAfter(ahead.silhouette_fit);
   if ((trial_frames_left_ > 0 && --trial_frames_left_ == 0) || lost) {
-    auto winner = std::max_element(hypotheses_.begin(), hypotheses_.end(),
-                                   [](const Hypothesis& a, const Hypothesis& b) { return a.score < b.score; });
+    auto winner = std::max_element(
+        hypotheses_.begin(), hypotheses_.end(),
+        [](const Hypothesis& a, const Hypothesis& b) { return a.score < b.score; });
     Hypothesis kept = std::move(*winner);
     hypotheses_.clear();
     hypotheses_.push_back(std::move(kept));

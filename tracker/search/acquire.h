@@ -17,18 +17,18 @@
 #include <functional>
 #include <memory>
 
-#include "tracker/model/body_model.h"
-#include "tracker/model/camera.h"
 #include "tracker/filters/filter.h"
 #include "tracker/likelihood/full_body.h"
 #include "tracker/likelihood/likelihood.h"
 #include "tracker/likelihood/silhouette_mask.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/camera.h"
 
 namespace mocap {
 
 struct AcquireOptions {
-  int headings = 12;           // over a full turn, tried at the triangulated position
-  int searched_headings = 4;   // the best ones at least 60 degrees apart, each searched locally
+  int headings = 12;             // over a full turn, tried at the triangulated position
+  int searched_headings = 4;     // the best ones at least 60 degrees apart, each searched locally
   int search_evaluations = 120;  // per searched heading: the root's place and heading
   int fit_evaluations = 600;     // per searched heading, then: every free DOF
   long min_silhouette_pixels = 400;  // a camera with fewer sees no subject
@@ -51,11 +51,11 @@ std::vector<Eigen::VectorXd> acquisitionStances(const BodyModel& model);
 // no free translations along X and Y and rotation about Z (the hand: its palm is fixed), or the
 // masks do not match the rig.
 std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
-                                          const std::vector<SilhouetteMask>& masks,
-                                          const std::vector<Eigen::VectorXd>& stances,
-                                          const LikelihoodParams& likelihood,
-                                          const AcquireOptions& options = {},
-                                          std::string* why_not = nullptr);
+                                        const std::vector<SilhouetteMask>& masks,
+                                        const std::vector<Eigen::VectorXd>& stances,
+                                        const LikelihoodParams& likelihood,
+                                        const AcquireOptions& options = {},
+                                        std::string* why_not = nullptr);
 
 // How well a pose explains the silhouettes, comparable across frames, cameras and sessions:
 // (silhouette pixels covered - footprint pixels off the silhouette) / silhouette pixels, all
@@ -129,7 +129,7 @@ class AcquiringFilter final : public PoseFilter {
   FullBodyEvaluator scorer_;
   std::function<bool()> yield_;
   std::vector<Hypothesis> hypotheses_;  // one once decided, several during a trial
-  bool searching_ = true;      // the next step acquires (hypotheses_ holds the lost filter, if any)
+  bool searching_ = true;  // the next step acquires (hypotheses_ holds the lost filter, if any)
   int trial_frames_left_ = 0;
   std::vector<double> recent_fits_;  // the fits the recent level is the median of, oldest first
   int low_fit_frames_ = 0;           // consecutive estimates under it

@@ -6,11 +6,11 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "tracker/search/acquire.h"
 #include "tracker/likelihood/full_body.h"
 #include "tracker/model/kinematics.h"
-#include "tracker/search/pose_search.h"
 #include "tracker/motion/retarget.h"
+#include "tracker/search/acquire.h"
+#include "tracker/search/pose_search.h"
 
 namespace mocap {
 

@@ -16,10 +16,10 @@
 
 #include <Eigen/Core>
 
-#include "tracker/model/body_model.h"
-#include "tracker/model/camera.h"
 #include "tracker/likelihood/likelihood.h"
 #include "tracker/likelihood/silhouette_mask.h"
+#include "tracker/model/body_model.h"
+#include "tracker/model/camera.h"
 
 namespace mocap {
 
@@ -37,10 +37,10 @@ struct BodyProportions {
   static const char* name(int k);
 };
 
-// The model with those proportions: lengths by fitModelToRestPoints (tracker/motion/retarget.h) on its own
-// rest pose so changed, so the feet stay on the floor; girth on every cone's radii and on the
-// ellipsoids' semi-axes across the segment frame's Z (the trunk's and the head's up axis). Needs
-// the human's 19 point names; throws std::runtime_error naming a missing one.
+// The model with those proportions: lengths by fitModelToRestPoints (tracker/motion/retarget.h) on
+// its own rest pose so changed, so the feet stay on the floor; girth on every cone's radii and on
+// the ellipsoids' semi-axes across the segment frame's Z (the trunk's and the head's up axis).
+// Needs the human's 19 point names; throws std::runtime_error naming a missing one.
 BodyModel proportionedBodyModel(const BodyModel& model, const BodyProportions& proportions);
 
 // The model's fit pose standing where `placed` stands and facing its way: the root's translations
@@ -83,8 +83,8 @@ struct BodyFit {
   double log_likelihood = 0;    // of the fitted build: its refined poses' sum over the frames
   // Of each scale of the grid, in order.
   std::vector<double> scale_log_likelihoods;
-  std::vector<Eigen::VectorXd> poses;         // the refined poses with the fitted build
-  long evaluations = 0;                       // full-body evaluations spent
+  std::vector<Eigen::VectorXd> poses;  // the refined poses with the fitted build
+  long evaluations = 0;                // full-body evaluations spent
 };
 
 // Fits `model` to the subject seen in `frames` (each one mask per camera of `rig`), tracked in each
@@ -98,8 +98,8 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
 // The body fitted to a subject standing in the model's `fit_pose` (the human: an A-pose),
 // turning in place between the frame sets if it likes (a quarter turn shows the limbs from more
 // sides than two cameras do): the subject is found in each frame set by acquireSubject
-// (tracker/search/acquire.h) in that pose alone, then fitBodyToSubject runs on the frame sets it was
-// found in. Empty, with the reason in *why_not, if it is found in none. Throws
+// (tracker/search/acquire.h) in that pose alone, then fitBodyToSubject runs on the frame sets it
+// was found in. Empty, with the reason in *why_not, if it is found in none. Throws
 // std::invalid_argument if the model has no fit_pose or cannot be acquired (see canAcquire), or
 // as fitBodyToSubject.
 std::optional<BodyFit> fitBodyInPose(const BodyModel& model, const Rig& rig,

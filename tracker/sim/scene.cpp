@@ -63,8 +63,7 @@ Rig labRig(int cameras, const BodyModel& model, const Motion& motion, int width,
   const Eigen::Vector3d target(centre.x(), centre.y(), 0.9);
   Rig rig;
   for (int i = 0; i < cameras; ++i) {
-    const double azimuth =
-        (45.0 + (cameras <= 4 ? 90.0 * i : 360.0 * i / cameras)) * M_PI / 180.0;
+    const double azimuth = (45.0 + (cameras <= 4 ? 90.0 * i : 360.0 * i / cameras)) * M_PI / 180.0;
     const Eigen::Vector3d eye(centre.x() + distance * std::cos(azimuth),
                               centre.y() + distance * std::sin(azimuth), 1.6);
     rig.push_back(CameraModel::lookAt("cam" + std::to_string(i), eye, target,

@@ -1,16 +1,17 @@
 // The scene simulator: renders ground-truth silhouettes of a body model in a pose into calibrated
-// virtual cameras. The ground-truth source of experiments and tests, and the fake camera's renderer.
+// virtual cameras. The ground-truth source of experiments and tests, and the fake camera's
+// renderer.
 #pragma once
 
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
 
+#include "tracker/likelihood/raster.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
 #include "tracker/model/kinematics.h"
 #include "tracker/motion/motion.h"
-#include "tracker/likelihood/raster.h"
 
 namespace mocap {
 

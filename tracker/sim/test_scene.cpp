@@ -126,17 +126,17 @@ SilhouetteTestScene::SilhouetteTestScene(const TestSceneOptions& options)
   }
   // Floor: tiles with grout lines and their own grain.
   const int tile = std::max(8, size.width / 16);
-  const cv::Vec3f tile_colors[2] = {{rng_.uniform(90.f, 130.f), rng_.uniform(90.f, 130.f),
-                                     rng_.uniform(90.f, 130.f)},
-                                    {rng_.uniform(120.f, 170.f), rng_.uniform(120.f, 170.f),
-                                     rng_.uniform(120.f, 170.f)}};
+  const cv::Vec3f tile_colors[2] = {
+      {rng_.uniform(90.f, 130.f), rng_.uniform(90.f, 130.f), rng_.uniform(90.f, 130.f)},
+      {rng_.uniform(120.f, 170.f), rng_.uniform(120.f, 170.f), rng_.uniform(120.f, 170.f)}};
   cv::Mat floor_grain = smoothNoise(rng_, size, 3, 3, -8, 8);
   for (int y = horizon; y < size.height; ++y) {
     auto* row = wall_.ptr<cv::Vec3f>(y);
     const auto* grain = floor_grain.ptr<cv::Vec3f>(y);
     for (int x = 0; x < size.width; ++x) {
       const bool grout = x % tile < 2 || (y - horizon) % (tile / 2) < 2;
-      row[x] = grout ? cv::Vec3f(60, 60, 60) : tile_colors[((x / tile) + (y - horizon) / (tile / 2)) % 2];
+      row[x] = grout ? cv::Vec3f(60, 60, 60)
+                     : tile_colors[((x / tile) + (y - horizon) / (tile / 2)) % 2];
       row[x] += grain[x];
     }
   }
@@ -241,15 +241,16 @@ void SilhouetteTestScene::render(int t, bool with_person, TestSceneFrame& out) {
     }
     // Camouflage: a patch on the chest of the wall's average colour there, slightly shifted.
     Eigen::Vector2d chest;
-    const Eigen::Vector3d chest_point =
-        options_.person ? layer_.chest.value_or(Eigen::Vector3d::Zero())
-                        : Eigen::Vector3d(sway, -0.2, 1.3);
+    const Eigen::Vector3d chest_point = options_.person
+                                            ? layer_.chest.value_or(Eigen::Vector3d::Zero())
+                                            : Eigen::Vector3d(sway, -0.2, 1.3);
     if (options_.camouflage && (!options_.person || layer_.chest) &&
         rig_[0].project(chest_point, chest)) {
       const int radius = std::max(4, options_.height / 30);
       const cv::Point centre(static_cast<int>(chest.x()), static_cast<int>(chest.y()));
-      const cv::Rect box = cv::Rect(centre.x - radius, centre.y - radius, 2 * radius + 1,
-                                    2 * radius + 1) & cv::Rect(0, 0, size.width, size.height);
+      const cv::Rect box =
+          cv::Rect(centre.x - radius, centre.y - radius, 2 * radius + 1, 2 * radius + 1) &
+          cv::Rect(0, 0, size.width, size.height);
       cv::Scalar behind = cv::mean(wall_(box));
       cv::Mat patch_mask = cv::Mat::zeros(size, CV_8UC1);
       cv::circle(patch_mask, centre, radius, 255, cv::FILLED);

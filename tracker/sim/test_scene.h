@@ -1,7 +1,8 @@
 // A synthetic camera view for testing and measuring silhouette extraction with known truth: a
 // textured wall and tiled floor, a simple articulated person (rendered by the tracker's
-// SceneRenderer, or any person layer, e.g. a simulated subject) with shading, a cast shadow on the floor, a patch on the body coloured like the
-// background behind it, sensor noise and a slow global illumination change.
+// SceneRenderer, or any person layer, e.g. a simulated subject) with shading, a cast shadow on the
+// floor, a patch on the body coloured like the background behind it, sensor noise and a slow global
+// illumination change.
 #pragma once
 
 #include <cstdint>
@@ -23,14 +24,14 @@ struct TestSceneOptions {
   // The camera the scene is seen from, of width x height pixels; empty: one 3.9 m in front of the
   // person, looking at its hips. The wall and floor are painted in the image either way.
   std::optional<CameraModel> camera;
-  bool color = true;     // BGR, else gray
+  bool color = true;  // BGR, else gray
   uint64_t seed = 1;
-  double noise_sigma = 2.5;                 // gray levels, per channel
-  double illumination_drift = 0.001;        // relative brightness change per frame
-  double side_drift = 0.0;                  // extra relative change per frame, left half only
-  double shadow_factor = 0.55;              // brightness left in the shadow's core
-  bool camouflage = true;                   // a patch on the torso close to the wall's colour
-  bool moving = true;                       // false: the person stands still in one pose
+  double noise_sigma = 2.5;           // gray levels, per channel
+  double illumination_drift = 0.001;  // relative brightness change per frame
+  double side_drift = 0.0;            // extra relative change per frame, left half only
+  double shadow_factor = 0.55;        // brightness left in the shadow's core
+  bool camouflage = true;             // a patch on the torso close to the wall's colour
+  bool moving = true;                 // false: the person stands still in one pose
   // Draws the person of frame t (at t = 0 too, before any frame, to place the floor) into the
   // scene's camera. Empty: the built-in articulated person of pose(t), shirt and trousers painted
   // by the scene. A painter's layer (mask and colours) replaces it; the shadow, light and noise
@@ -66,8 +67,8 @@ class SilhouetteTestScene {
   Rig rig_;
   SceneRenderer renderer_;
   cv::RNG rng_;
-  cv::Mat wall_;        // CV_32FC3, the lit scene without person at gain 1
-  cv::Mat side_mask_;   // CV_32FC3, 1 on the left half
+  cv::Mat wall_;       // CV_32FC3, the lit scene without person at gain 1
+  cv::Mat side_mask_;  // CV_32FC3, 1 on the left half
   int feet_row_ = 0;
   std::vector<cv::Mat> silhouettes_;
   cv::Mat shaded_, shadow_soft_, distance_, noise_, scratch_;

@@ -61,9 +61,8 @@ TEST(Args, BadFlagsAreNamed) {
 
 // Each command accepts what its usage names: a flag from every line, and the switches as switches.
 TEST(Args, EveryCommandAcceptsTheFlagsItsUsageNames) {
-  EXPECT_TRUE(
-      parse({"--lost-after", "16", "--speed-scale", "2", "--motion", "x.bvh"}, kHumanUsage)
-          .has("speed-scale"));
+  EXPECT_TRUE(parse({"--lost-after", "16", "--speed-scale", "2", "--motion", "x.bvh"}, kHumanUsage)
+                  .has("speed-scale"));
   EXPECT_TRUE(parse({"--threads", "2", "--describe"}, kHandUsage).has("describe"));
   EXPECT_TRUE(parse({"--no-adaptive", "--dump", "d"}, kSilhouetteUsage).has("no-adaptive"));
   EXPECT_TRUE(parse({"--write-images", "d", "--dictionary", "5X5_100"}, kCalibrationUsage)

@@ -2,8 +2,8 @@
 // counted by what went wrong, --reset-every restarts from the truth, --speed-scale slows only the
 // tracker, --skip-rate leaves frames untracked and unscored, --tracked-body gives the tracker
 // another body than the subject's, and bad flags are refused with their names.
-#include "tests/shared_data.h"
 #include "tracker/experiments/human_experiment.h"
+#include "tests/shared_data.h"
 
 #include <unistd.h>
 

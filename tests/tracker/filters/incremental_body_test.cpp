@@ -1,8 +1,8 @@
-// The incremental full-body evaluator: after a reset and along a random sequence of trials (one DOF,
-// or several at once like the pattern move), accepted or rejected at random, every count equals
-// FullBodyEvaluator::evaluate's for the same pose, a rejected trial leaves the state as it was, and
-// the state reached trial by trial counts as a fresh reset at the current pose. On the hand and the
-// human.
+// The incremental full-body evaluator: after a reset and along a random sequence of trials (one
+// DOF, or several at once like the pattern move), accepted or rejected at random, every count
+// equals FullBodyEvaluator::evaluate's for the same pose, a rejected trial leaves the state as it
+// was, and the state reached trial by trial counts as a fresh reset at the current pose. On the
+// hand and the human.
 #include <filesystem>
 #include <random>
 
@@ -10,11 +10,11 @@
 
 #include "tests/shared_data.h"
 #include "tests/tracker/filters/filter_test_support.h"
+#include "tracker/filters/filter.h"
+#include "tracker/filters/incremental_body.h"
+#include "tracker/likelihood/full_body.h"
 #include "tracker/model/builtin_models.h"
 #include "tracker/motion/bvh.h"
-#include "tracker/filters/filter.h"
-#include "tracker/likelihood/full_body.h"
-#include "tracker/filters/incremental_body.h"
 #include "tracker/motion/motion.h"
 #include "tracker/motion/retarget.h"
 #include "tracker/sim/scene.h"
@@ -106,7 +106,8 @@ TEST(IncrementalBodyEvaluator, HumanTrialsMatchTheFullEvaluation) {
 TEST(IncrementalBodyEvaluator, ResetClearsThePreviousFrame) {
   testing_support::HandScene scene;
   const Motion motion = generateMotion(scene.model, 2, 4);
-  IncrementalBodyEvaluator incremental(scene.model, scene.rig, LikelihoodParams().points_per_circle);
+  IncrementalBodyEvaluator incremental(scene.model, scene.rig,
+                                       LikelihoodParams().points_per_circle);
   FullBodyEvaluator full(scene.model, scene.rig, LikelihoodParams().points_per_circle, 1);
   const auto first = scene.masks(motion[0]), second = scene.masks(motion[1]);
   // The same fingertip DOF tried in both frames: what the first frame learnt of the rest of the
@@ -127,7 +128,8 @@ TEST(IncrementalBodyEvaluator, ResetClearsThePreviousFrame) {
 TEST(IncrementalBodyEvaluator, RasterizesOnlyTheMovedSubtree) {
   testing_support::HandScene scene;
   const Eigen::VectorXd q = scene.model.neutralPose();
-  IncrementalBodyEvaluator incremental(scene.model, scene.rig, LikelihoodParams().points_per_circle);
+  IncrementalBodyEvaluator incremental(scene.model, scene.rig,
+                                       LikelihoodParams().points_per_circle);
   const auto masks = scene.masks(q);  // the evaluator keeps them
   incremental.reset(q, masks);
   const long after_reset = incremental.renders();

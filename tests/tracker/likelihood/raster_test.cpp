@@ -43,12 +43,13 @@ TEST(Raster, EllipsoidOnAxisMatchesAnalyticEllipseArea) {
   EXPECT_NEAR(f.area(), expected, 0.005 * expected);
   // The coarse tracker outline is area-matched, so it stays close too.
   ShapeRasterizer coarse(8);
-  EXPECT_NEAR(coarse.rasterize(s, at(0, 0, d), cam, buffer.data()).area(), expected, 0.03 * expected);
+  EXPECT_NEAR(coarse.rasterize(s, at(0, 0, d), cam, buffer.data()).area(), expected,
+              0.03 * expected);
 }
 
 TEST(Raster, SideOnTruncatedConeIsATrapezoidUnderWeakPerspective) {
-  // Far away (depth 10 m, f = 5000 px: 500 px per metre), a cone lying across the view projects to a
-  // trapezoid of area L * (r0 + r1) * 500^2; the end circles are seen edge-on.
+  // Far away (depth 10 m, f = 5000 px: 500 px per metre), a cone lying across the view projects to
+  // a trapezoid of area L * (r0 + r1) * 500^2; the end circles are seen edge-on.
   const CameraModel cam = axisCamera(5000);
   Shape s;
   s.type = ShapeType::kTruncatedCone;
@@ -92,16 +93,18 @@ TEST(Raster, SpansHoldExactlyThePixelCentresInsideTheHull) {
     s.radius_end = 0.04 + 0.02 * u(rng);
     s.radii = Eigen::Vector3d(0.15, 0.08, 0.05) * (1.2 + 0.5 * u(rng));
     Eigen::Isometry3d pose = at(0.4 * u(rng), 0.3 * u(rng), 1.5 + 0.3 * u(rng));
-    pose.rotate(Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()));
+    pose.rotate(
+        Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()));
     const Footprint f = raster.rasterize(s, pose, cam, buffer.data());
     const std::vector<Eigen::Vector2d>& hull = raster.lastHull();
     for (int y = 0; y < cam.height; ++y) {
       for (int x = 0; x < cam.width; ++x) {
-        const bool in_spans = y >= f.y0 && y < f.y1 && x >= f.spans[y - f.y0].x0 &&
-                              x < f.spans[y - f.y0].x1;
+        const bool in_spans =
+            y >= f.y0 && y < f.y1 && x >= f.spans[y - f.y0].x0 && x < f.spans[y - f.y0].x1;
         // Centres exactly on an edge may go either way (fill rule); skip a hair around edges.
         const bool inside = insideConvex(hull, x, y);
-        const bool inside_grown = insideConvex(hull, x, y) || insideConvex(hull, x + 1e-6, y + 1e-6) ||
+        const bool inside_grown = insideConvex(hull, x, y) ||
+                                  insideConvex(hull, x + 1e-6, y + 1e-6) ||
                                   insideConvex(hull, x - 1e-6, y - 1e-6);
         if (inside != inside_grown) continue;
         ASSERT_EQ(in_spans, inside) << "trial " << trial << " pixel " << x << "," << y;

@@ -38,11 +38,11 @@ TEST(BodyModel, ParsesSegmentsDofsShapesAndPoints) {
   ASSERT_EQ(m.dofs.size(), 2u);
   EXPECT_EQ(m.segments[1].parent, 0);
   EXPECT_EQ(m.dofs[0].type, DofType::kRotation);
-  EXPECT_NEAR(m.dofs[0].max, M_PI / 2, 1e-12);          // degrees at the edge, radians inside
+  EXPECT_NEAR(m.dofs[0].max, M_PI / 2, 1e-12);  // degrees at the edge, radians inside
   EXPECT_NEAR(m.dofs[0].max_speed, 10 * M_PI / 180, 1e-12);
   EXPECT_TRUE(m.dofs[0].axis.isApprox(Eigen::Vector3d::UnitY()));  // normalized
   EXPECT_EQ(m.dofs[1].type, DofType::kTranslation);
-  EXPECT_DOUBLE_EQ(m.dofs[1].max, 0.1);                 // metres stay metres
+  EXPECT_DOUBLE_EQ(m.dofs[1].max, 0.1);  // metres stay metres
   EXPECT_EQ(m.dofs[1].segment, 1);
   EXPECT_EQ(m.segments[0].shape.type, ShapeType::kTruncatedCone);
   EXPECT_EQ(m.segments[1].shape.type, ShapeType::kEllipsoid);
@@ -119,13 +119,16 @@ TEST(BodyModel, ErrorsNameTheFileLineAndField) {
     bad.replace(at, std::string(c.from).size(), c.to);
     EXPECT_THAT(errorOf(bad), HasSubstr(c.error));
   }
-  // Facing twists add up signed by their axes, so each must turn about the first's axis or against it.
+  // Facing twists add up signed by their axes, so each must turn about the first's axis or against
+  // it.
   const std::string translation = "type: translation, axis: [1, 0, 0], min: 0, max: 0.1";
   std::string crossed = kTwoSegments;
-  crossed.replace(crossed.find(translation), translation.size(), "axis: [1, 0, 0], min: 0, max: 10");
+  crossed.replace(crossed.find(translation), translation.size(),
+                  "axis: [1, 0, 0], min: 0, max: 10");
   crossed.replace(crossed.find("name: arm"), 9, "name: arm\nfacing_twists: [shoulder, slide]");
-  EXPECT_THAT(errorOf(crossed), HasSubstr("bad.yaml:3: facing_twists[1]: 'slide' turns about an axis "
-                                          "neither along nor against 'shoulder''s"));
+  EXPECT_THAT(errorOf(crossed),
+              HasSubstr("bad.yaml:3: facing_twists[1]: 'slide' turns about an axis "
+                        "neither along nor against 'shoulder''s"));
   EXPECT_THAT(errorOf("segments: [ {name: a"), HasSubstr("bad.yaml:1: not valid YAML"));
   EXPECT_THAT(errorOf("name: x"), HasSubstr("(top).segments: missing"));
 }
@@ -145,7 +148,9 @@ TEST(BodyModel, MissingFileIsNamed) {
 
 TEST(BodyModel, StancesSetTheirDofsInTheFilesUnitsAndTheRestNeutral) {
   std::string yaml = kTwoSegments;
-  yaml.replace(yaml.find("name: arm"), 9, "name: arm\nstances: [{name: reach, shoulder: 45, slide: 0.05}, {name: tucked, slide: 0.1}]");
+  yaml.replace(
+      yaml.find("name: arm"), 9,
+      "name: arm\nstances: [{name: reach, shoulder: 45, slide: 0.05}, {name: tucked, slide: 0.1}]");
   const BodyModel m = parseBodyModel(yaml, "arm.yaml");
   ASSERT_EQ(m.stances.size(), 2u);
   EXPECT_EQ(m.stances[1].name, "tucked");
@@ -195,7 +200,8 @@ TEST(BodyModel, SpeedLimitsArePerFrameAtTheModelsFrameRate) {
   const BodyModel arm = parseBodyModel(kTwoSegments, "arm.yaml");
   EXPECT_EQ(arm.frame_rate, 25);  // the paper's rate, when the file does not say
   EXPECT_EQ(builtinHumanModel().frame_rate, 25);
-  EXPECT_EQ(parseBodyModel(std::string(kTwoSegments) + "frame_rate: 50\n", "arm.yaml").frame_rate, 50);
+  EXPECT_EQ(parseBodyModel(std::string(kTwoSegments) + "frame_rate: 50\n", "arm.yaml").frame_rate,
+            50);
 
   // At 50 Hz a frame lasts half as long, so each DOF may move half as far in one; rotations and
   // translations alike, and nothing else changes.

@@ -18,9 +18,9 @@ namespace {
 using ::testing::HasSubstr;
 
 CameraModel distortedCamera() {
-  CameraModel c = CameraModel::lookAt("cam", Eigen::Vector3d(1.5, -2.0, 1.2),
-                                      Eigen::Vector3d(0, 0, 0.9), Eigen::Vector3d::UnitZ(), 780,
-                                      580, 900);
+  CameraModel c =
+      CameraModel::lookAt("cam", Eigen::Vector3d(1.5, -2.0, 1.2), Eigen::Vector3d(0, 0, 0.9),
+                          Eigen::Vector3d::UnitZ(), 780, 580, 900);
   c.fy = 905;
   c.cx = 385.5;
   c.cy = 292.25;
@@ -69,8 +69,9 @@ TEST(Camera, BackProjectionIsTheRayThroughTheProjectedPoint) {
 }
 
 TEST(Camera, LookAtPutsTheTargetAtThePrincipalPointWithZUpOnScreen) {
-  const CameraModel cam = CameraModel::lookAt("c", Eigen::Vector3d(0, -3, 1), Eigen::Vector3d(0, 0, 1),
-                                              Eigen::Vector3d::UnitZ(), 780, 580, 1000);
+  const CameraModel cam =
+      CameraModel::lookAt("c", Eigen::Vector3d(0, -3, 1), Eigen::Vector3d(0, 0, 1),
+                          Eigen::Vector3d::UnitZ(), 780, 580, 1000);
   Eigen::Vector2d px;
   ASSERT_TRUE(cam.project(Eigen::Vector3d(0, 0, 1), px));
   EXPECT_NEAR(px.x(), 390, 1e-9);
@@ -81,14 +82,12 @@ TEST(Camera, LookAtPutsTheTargetAtThePrincipalPointWithZUpOnScreen) {
   EXPECT_FALSE(cam.project(Eigen::Vector3d(0, -4, 1), px));  // behind the camera
 }
 
-std::string tempPath(const std::string& name) {
-  return (testing::TempDir() + "/") + name;
-}
+std::string tempPath(const std::string& name) { return (testing::TempDir() + "/") + name; }
 
 TEST(Camera, RigRoundTripIsReadableByOpenCv) {
-  Rig rig = {distortedCamera(), CameraModel::lookAt("side", Eigen::Vector3d(3, 0, 1),
-                                                    Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitZ(),
-                                                    640, 480, 700)};
+  Rig rig = {distortedCamera(),
+             CameraModel::lookAt("side", Eigen::Vector3d(3, 0, 1), Eigen::Vector3d(0, 0, 1),
+                                 Eigen::Vector3d::UnitZ(), 640, 480, 700)};
   const std::string path = tempPath("rig.yaml");
   saveRig(path, rig);
 

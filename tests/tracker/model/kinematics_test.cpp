@@ -54,7 +54,8 @@ TEST(Kinematics, ChildFrameComposesParentRotation) {
   Eigen::VectorXd q(3);
   q << 0.4, 0.7, 0.0;
   forwardKinematics(m, data, q);
-  const Eigen::Matrix3d expected = Eigen::AngleAxisd(1.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3d expected =
+      Eigen::AngleAxisd(1.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   EXPECT_TRUE(data.world[1].linear().isApprox(expected, 1e-12));
 }
 

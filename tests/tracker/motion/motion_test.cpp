@@ -72,10 +72,12 @@ TEST(Motion, BadCsvFilesAreRefusedWithLineAndColumn) {
     zeros += d ? ",0.1" : "0.1";
   }
   EXPECT_EQ(errorOf(header + "\n" + zeros + "\n"), "");
-  EXPECT_THAT(errorOf("bogus," + header + "\n"), HasSubstr("bad.csv:1: column 1: unknown DOF 'bogus'"));
+  EXPECT_THAT(errorOf("bogus," + header + "\n"),
+              HasSubstr("bad.csv:1: column 1: unknown DOF 'bogus'"));
   EXPECT_THAT(errorOf(header.substr(header.find(',') + 1) + "\n"),
               HasSubstr("missing column for DOF 'thumb_cmc_flex'"));
-  EXPECT_THAT(errorOf(header + "\n" + zeros + ",0\n"), HasSubstr("bad.csv:2: 16 values, expected 15"));
+  EXPECT_THAT(errorOf(header + "\n" + zeros + ",0\n"),
+              HasSubstr("bad.csv:2: 16 values, expected 15"));
   std::string row = zeros;
   row.replace(row.find(",0.1"), 4, ",abc");
   EXPECT_THAT(errorOf(header + "\n" + zeros + "\n" + row + "\n"),

@@ -7,9 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "tests/tracker/filters/filter_test_support.h"
+#include "tracker/filters/filter.h"
 #include "tracker/model/builtin_models.h"
-#include "tracker/filters/filter.h"
-#include "tracker/filters/filter.h"
 #include "tracker/sim/scene.h"
 
 namespace mocap {
@@ -45,17 +44,15 @@ struct StrideScene {
   }
 };
 
-double headingError(double a, double b) {
-  return std::abs(std::remainder(a - b, 2 * M_PI));
-}
+double headingError(double a, double b) { return std::abs(std::remainder(a - b, 2 * M_PI)); }
 
 TEST(Acquire, PlacesTheBodyWhereItsSilhouettesMeetFacingEachWayItMight) {
   StrideScene scene;
   const auto masks = silhouettes(scene.model, scene.rig, scene.truth);
   std::string why;
-  const std::vector<Acquisition> found = acquireSubject(
-      scene.model, scene.rig, masks, acquisitionStances(scene.model), LikelihoodParams{},
-      AcquireOptions{}, &why);
+  const std::vector<Acquisition> found =
+      acquireSubject(scene.model, scene.rig, masks, acquisitionStances(scene.model),
+                     LikelihoodParams{}, AcquireOptions{}, &why);
   ASSERT_GE(found.size(), 2u) << why;
   const BodyModel& m = scene.model;
   const int x = m.dofIndex("root_tx"), y = m.dofIndex("root_ty"), yaw = m.dofIndex("root_yaw");
@@ -102,8 +99,9 @@ TEST(Acquire, TheAcquiringFilterTracksTheBodyFromWhereItFoundIt) {
   WorkerPool pool(1);
   FilterOptions options = humanFilterDefaults();
   options.evaluations_per_frame = 2000;
-  AcquiringFilter filter(scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
-                         [&] { return makeFilter("factored", scene.model, scene.rig, options, pool); });
+  AcquiringFilter filter(
+      scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
+      [&] { return makeFilter("factored", scene.model, scene.rig, options, pool); });
   KinematicsData estimated(scene.model), truth(scene.model);
   forwardKinematics(scene.model, truth, scene.truth);
   const auto true_points = pointPositions(scene.model, truth);
@@ -122,7 +120,7 @@ TEST(Acquire, TheAcquiringFilterTracksTheBodyFromWhereItFoundIt) {
   EXPECT_GT(e.evaluations, 2 * 2000);
   for (int f = 1; f < 15; ++f) e = filter.step(masks);
   EXPECT_EQ(e.evaluations, 2000 + 1);  // one hypothesis left, and its fit
-  EXPECT_LT(meanError(e.q), 0.05);  // within 50 mm on average over the joints
+  EXPECT_LT(meanError(e.q), 0.05);     // within 50 mm on average over the joints
 }
 
 TEST(Acquire, TheSilhouetteFitIsNearOneAtTheTruthAndFallsAwayFromIt) {
@@ -196,9 +194,9 @@ TEST(Acquire, AFitFarUnderItsRecentLevelIsALossOnlyWhenAsked) {
   auto lossesAfter = [&](double lost_below) {
     AcquiringOptions acquiring;
     acquiring.lost_below = lost_below;
-    AcquiringFilter filter(m, scene.rig, acquisitionStances(m), options.likelihood,
-                           [&] { return makeFilter("factored", m, scene.rig, options, pool); },
-                           acquiring);
+    AcquiringFilter filter(
+        m, scene.rig, acquisitionStances(m), options.likelihood,
+        [&] { return makeFilter("factored", m, scene.rig, options, pool); }, acquiring);
     filter.reset(scene.truth);
     for (int f = 0; f < 25; ++f) filter.step(masks);  // the recent level is learnt
     for (int f = 0; f < 4; ++f) {
@@ -235,8 +233,9 @@ TEST(Acquire, NoSubjectInViewIsToldWithThePixelsEachCameraSees) {
   WorkerPool pool(1);
   FilterOptions options;
   options.evaluations_per_frame = 200;
-  AcquiringFilter filter(scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
-                         [&] { return makeFilter("factored", scene.model, scene.rig, options, pool); });
+  AcquiringFilter filter(
+      scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
+      [&] { return makeFilter("factored", scene.model, scene.rig, options, pool); });
   EXPECT_FALSE(filter.step(empty).found);
   EXPECT_THAT(filter.lastFailure(), HasSubstr("no subject"));
   EXPECT_EQ(filter.acquisitions(), 0);

@@ -15,7 +15,8 @@ RefinementPlan makeRefinementPlan(const BodyModel& model, const FilterOptions& o
   plan.held.resize(plan.dofs.size());
   if (options.refine.hold) plan.held = findHeldChildren(model, plan.dofs);
   if (options.refine.plant || options.refine.unexplained) plan.legs = findLegs(model);
-  if (options.refine.swap.enabled) plan.swap = findSwappedLegs(model, options.refine.swap.knees_only);
+  if (options.refine.swap.enabled)
+    plan.swap = findSwappedLegs(model, options.refine.swap.knees_only);
   if (options.refine.restart_share > 0) plan.restart_limbs = findRestartLimbs(model, descendants);
   if (options.refine.facing_prior > 0)
     plan.facing = makeFacingPrior(model, options.refine.facing_prior);
