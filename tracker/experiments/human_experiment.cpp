@@ -68,9 +68,7 @@ void writeOverlays(const std::string& dir, int frame, const std::vector<Silhouet
   }
 }
 
-}  // namespace
-
-nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
+void validate(const HumanExperimentConfig& config) {
   if (config.dofs != 31 && config.dofs != 17)
     throw std::invalid_argument("--dofs: expected 31 or 17");
   if (config.noise != "none" && config.noise != "realistic")
@@ -83,19 +81,34 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   if (config.silhouettes != "true" && config.silhouettes != "extracted")
     throw std::invalid_argument("--silhouettes: expected true or extracted, got '" +
                                 config.silhouettes + "'");
-  const bool extracted = config.silhouettes == "extracted";
-  if (extracted && config.noise != "none")
+  if (config.silhouettes == "extracted" && config.noise != "none")
     throw std::invalid_argument("--noise realistic corrupts true silhouettes: not with extracted");
+  if (config.tracked_body != "truth" && config.tracked_body != "default" &&
+      config.tracked_body != "fit")
+    throw std::invalid_argument("--tracked-body: expected truth, default or fit, got '" +
+                                config.tracked_body + "'");
+}
+
+// The subject and its motion: the model file's body with the BVH's proportions (optionally all
+// of it `subject_scale` times as large: a smaller or taller person moving the same way, so its
+// root moves that much farther too), posed frame by frame at 25 Hz.
+struct HumanSubject {
+  BodyModel model;             // the subject's body (its 17 gait DOFs only, with --dofs 17)
+  BodyModel unfitted;          // the model file's body (likewise)
+  Motion truth;                // from --start-frame, --frames long at most
+  double fit_residual_mm = 0;  // the retargeting's mean residual over those frames
+};
+
+HumanSubject loadSubject(const HumanExperimentConfig& config) {
   const BodyModel base =
       config.model_path.empty() ? builtinHumanModel() : loadBodyModel(config.model_path);
   const Bvh bvh = loadBvh(config.motion_path, config.bvh);
-  // The subject: the BVH's own proportions, optionally all of it `subject_scale` times as large
-  // (a smaller or taller person moving the same way, so its root moves that much farther too).
   const BodyModel bvh_body = fitModelToBvh(base, bvh.skeleton);
   const BodyModel fitted = scaledBodyModel(bvh_body, config.subject_scale);
   const RetargetResult retarget =
       retargetBvh(bvh_body, bvh.skeleton, bvh.motion, 25, config.start_frame + config.frames);
-  Motion truth = retarget.motion;
+  HumanSubject subject{fitted, base, retarget.motion};
+  Motion& truth = subject.truth;
   if (config.start_frame >= static_cast<int>(truth.size()))
     throw std::invalid_argument("--start-frame: the motion has only " +
                                 std::to_string(truth.size()) + " frames at 25 Hz");
@@ -106,265 +119,255 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
   const int frames = std::min<int>(config.frames, static_cast<int>(truth.size()));
 
   // Gait mode: the 17 gait DOFs move, the rest stay neutral in the truth and in the tracker.
-  BodyModel model = fitted;
-  BodyModel unfitted = base;
   if (config.dofs == 17) {
     if (fitted.gait_dofs.size() != 17)
       throw std::invalid_argument("the body model defines " +
                                   std::to_string(fitted.gait_dofs.size()) + " gait DOFs, not 17");
     const Eigen::VectorXd neutral = fitted.neutralPose();
-    model = freezeAllBut(fitted, fitted.gait_dofs, neutral);
-    unfitted = freezeAllBut(base, base.gait_dofs, neutral);
+    subject.model = freezeAllBut(fitted, fitted.gait_dofs, neutral);
+    subject.unfitted = freezeAllBut(base, base.gait_dofs, neutral);
     for (Eigen::VectorXd& q : truth)
-      for (std::size_t d = 0; d < model.dofs.size(); ++d)
-        if (!model.dofs[d].isFree()) q[static_cast<long>(d)] = neutral[static_cast<long>(d)];
+      for (std::size_t d = 0; d < subject.model.dofs.size(); ++d)
+        if (!subject.model.dofs[d].isFree())
+          q[static_cast<long>(d)] = neutral[static_cast<long>(d)];
   }
   truth.resize(frames);
+  double residual = 0;
+  int residual_count = 0;
+  for (int f = 0; f < frames; ++f)
+    for (double r : retarget.residual_mm[f]) residual += r, ++residual_count;
+  subject.fit_residual_mm = residual_count ? residual / residual_count : 0.0;
+  return subject;
+}
+
+// The body the tracker knows: the subject's own ("truth"), the model file as given ("default"),
+// or that file with the proportions fitted to the subject ("fit").
+struct TrackedBody {
+  BodyModel body;
+  std::optional<BodyFit> fit;
+  double fit_seconds = 0;
+};
+
+// As a user would: the subject first stands in the model's fit pose where the motion starts,
+// turning from its first heading through a quarter turn over kFitFrames frames, and the model
+// file's body is fitted to it.
+TrackedBody fitTrackedBody(const HumanExperimentConfig& config, const HumanSubject& subject,
+                           const Rig& rig, HumanScene& renderer,
+                           const LikelihoodParams& likelihood) {
+  const BodyModel& unfitted = subject.unfitted;
+  if (!unfitted.fit_pose)
+    throw std::invalid_argument("--tracked-body fit: the body model has no fit_pose");
+  const FitStance standing = fitPoseAt(unfitted, subject.truth[0]);
+  std::vector<std::vector<SilhouetteMask>> fit_frames(kFitFrames);
+  std::vector<cv::Mat> fit_images;
+  for (int f = 0; f < kFitFrames; ++f) {
+    Eigen::VectorXd turned = standing.pose;
+    if (standing.turn_dof >= 0)
+      turned[standing.turn_dof] += M_PI / 2 * f / std::max(1, kFitFrames - 1);
+    renderer.renderSilhouettes(turned, fit_images);
+    for (std::size_t c = 0; c < rig.size(); ++c) {
+      // Frames before the motion's own (negative), so their defects differ from its frames'.
+      if (config.noise == "realistic")
+        corruptSilhouette(fit_images[c], config.seed, -1 - f, static_cast<int>(c));
+      fit_frames[f].emplace_back(fit_images[c]);
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  std::string why_not;
+  std::optional<BodyFit> fit = fitBodyInPose(unfitted, rig, fit_frames, likelihood, {}, &why_not);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!fit) throw std::runtime_error("--tracked-body fit: no subject found: " + why_not);
+  return {proportionedBodyModel(unfitted, fit->proportions), fit, seconds};
+}
+
+TrackedBody trackedBodyFor(const HumanExperimentConfig& config, const HumanSubject& subject,
+                           const Rig& rig, HumanScene& renderer,
+                           const LikelihoodParams& likelihood) {
+  if (config.tracked_body == "default") return {subject.unfitted, std::nullopt, 0};
+  if (config.tracked_body == "fit")
+    return fitTrackedBody(config, subject, rig, renderer, likelihood);
+  return {subject.model, std::nullopt, 0};
+}
+
+// The filter under test, and the acquiring filter around it when there is one: it finds the body
+// itself, in the model's stances, as mocapd does on real cameras, at the start when there is no
+// true first pose, and again when it declares itself lost.
+struct TrackerUnderTest {
+  std::unique_ptr<PoseFilter> filter;
+  AcquiringFilter* acquiring = nullptr;
+};
+
+TrackerUnderTest makeTracker(const HumanExperimentConfig& config, const BodyModel& tracked,
+                             const Rig& rig, const FilterOptions& options, WorkerPool& pool) {
+  const auto makeTrackerFilter = [&] {
+    return makeFilter(config.method, tracked, rig, options, pool);
+  };
+  if (config.start_offset != "acquire" && !config.lost_below) return {makeTrackerFilter()};
+  AcquiringOptions acquiring_options;
+  acquiring_options.lost_below = config.lost_below.value_or(0);
+  acquiring_options.lost_after = config.lost_after;
+  auto acquiring =
+      std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
+                                        options.likelihood, makeTrackerFilter, acquiring_options);
+  AcquiringFilter* borrowed = acquiring.get();
+  return {std::move(acquiring), borrowed};
+}
+
+// Frame `f`'s silhouettes as the tracker gets them, with the defects the config asks for.
+void renderFrame(const HumanExperimentConfig& config, int f, const Eigen::VectorXd& truth,
+                 int missed_limb, HumanScene& renderer, std::vector<cv::Mat>& images,
+                 std::vector<SilhouetteMask>& masks) {
+  const bool realistic = config.noise == "realistic";
+  // A limb missed by segmentation in one camera for 5 frames out of every 50.
+  if (realistic && missed_limb >= 0 && f % 50 >= 20 && f % 50 < 25)
+    renderer.hideSegment(0, missed_limb);
+  renderer.renderSilhouettes(truth, images);
+  renderer.clearHidden();
+  const bool out_of_view = f >= config.dropout_at && f < config.dropout_at + config.dropout_frames;
+  for (std::size_t c = 0; c < images.size(); ++c) {
+    if (realistic) corruptSilhouette(images[c], config.seed, f, static_cast<int>(c));
+    if (out_of_view) images[c].setTo(0);
+    masks[c] = SilhouetteMask(images[c]);
+  }
+}
+
+// The filter's settings as the output reports them.
+void describeFilter(const HumanExperimentConfig& config, const FilterOptions& options,
+                    nlohmann::json& out) {
+  const bool refined = config.method == "factored" && options.refine.share > 0;
+  const bool swap = refined && options.refine.swap.enabled;
+  out["injection"] = options.injection.share;
+  out["inject"] =
+      options.injection.redraw == InjectionOptions::Redraw::kSegment ? "segment" : "dof";
+  out["refine"] = refined ? options.refine.share : 0.0;
+  out["refine_max"] = refined ? options.refine.max_evaluations : 0;
+  out["refine_hold"] = refined && options.refine.hold;
+  out["refine_plant"] = refined && options.refine.plant;
+  out["refine_unexplained"] = refined && options.refine.unexplained;
+  out["refine_swap"] = swap;
+  out["refine_swap_knees_only"] = swap && options.refine.swap.knees_only;
+  out["refine_swap_margin"] = swap ? options.refine.swap.margin : 0.0;
+  out["refine_restart_share"] = refined ? options.refine.restart_share : 0.0;
+}
+
+void describeProportions(const BodyProportions& proportions, const char* key, nlohmann::json& out) {
+  nlohmann::json named = nlohmann::json::object();
+  for (int k = 0; k < BodyProportions::kCount; ++k)
+    named[BodyProportions::name(k)] = proportions[k];
+  out[key] = named;
+}
+
+nlohmann::json orNull(const std::optional<int>& value) {
+  return value ? nlohmann::json(*value) : nlohmann::json();
+}
+
+// The output's fields that only some flags add (so that a run without them reports as before).
+void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubject& subject,
+                            const HumanScene& renderer, const TrackedBody& tracked,
+                            const HumanRunScore& score, nlohmann::json& out) {
+  if (config.reset_every > 0) out["reset_every"] = config.reset_every;
+  if (config.start_frame > 0) out["start_frame"] = config.start_frame;
+  if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
+  if (config.subject_scale != 1) out["subject_scale"] = config.subject_scale;
+  if (config.tracked_body != "truth") {
+    out["tracked_body"] = config.tracked_body;
+    out["body_floor_mm"] = score.meanBodyFloorMm();
+  }
+  if (tracked.fit) {
+    out["body_scale"] = tracked.fit->scale;
+    describeProportions(tracked.fit->proportions, "body_proportions", out);
+    out["body_fit_evaluations"] = tracked.fit->evaluations;
+    out["body_fit_seconds"] = tracked.fit_seconds;
+  }
+  if (config.reportsProductPath()) {
+    out["scenario"] = config.scenario.empty() ? nlohmann::json() : nlohmann::json(config.scenario);
+    out["silhouettes"] = config.silhouettes;
+    out["subject_seed"] =
+        config.subject_seed ? nlohmann::json(*config.subject_seed) : nlohmann::json();
+    out["longest_loss_frames"] = score.longestLossFrames();
+    out["frames_to_first_lock"] = orNull(score.firstLockFrame());
+    if (const std::optional<BodyProportions> drawn =
+            renderer.subjectProportions(subject.unfitted)) {
+      describeProportions(*drawn, "subject_proportions", out);
+      out["subject_height_m"] = renderer.subjectParams()->height;
+    }
+  }
+  if (config.skip_rate > 0) {
+    out["skip_rate"] = config.skip_rate;
+    out["tracked_frames"] = score.scoredFrames();
+  }
+  if (config.dropout_frames > 0) {
+    out["dropout_at"] = config.dropout_at;
+    out["dropout_frames"] = config.dropout_frames;
+  }
+  if (config.start_offset != "none") {
+    out["start_offset"] = config.start_offset;
+    out["recovery_frames"] = orNull(score.recoveryFrame());
+    if (config.start_offset == "arm60")
+      out["arm_recovery_frames"] = orNull(score.leftArmRecoveryFrame());
+  }
+}
+
+}  // namespace
+
+nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
+  validate(config);
+  const HumanSubject subject = loadSubject(config);
+  const BodyModel& model = subject.model;
+  const Motion& truth = subject.truth;
+  const int frames = static_cast<int>(truth.size());
   const Rig rig = labRig(config.cameras, model, truth);
   // The person the cameras see, in its room when silhouettes are extracted (the background is
   // learned first, with nobody in view).
-  HumanScene renderer(model, rig, {config.subject_seed, extracted, config.seed}, truth[0]);
+  HumanScene renderer(
+      model, rig, {config.subject_seed, config.silhouettes == "extracted", config.seed}, truth[0]);
   renderer.learnBackground();
 
   FilterOptions options = config.filter;
   options.evaluations_per_frame = config.evaluations;
   options.seed = config.seed;
   WorkerPool pool(config.threads);
-  // The body the tracker knows: the subject's own (every other table of docs/human.md), the
-  // model file as given, or that file with the proportions fitted to the subject standing in its
-  // fit pose before the motion.
-  std::optional<BodyFit> body_fit;
-  double body_fit_seconds = 0;
-  BodyModel tracked_body = model;
-  if (config.tracked_body == "default") {
-    tracked_body = unfitted;
-  } else if (config.tracked_body == "fit") {
-    // As a user would: the subject first stands in the model's fit pose where the motion starts,
-    // turning from its first heading through a quarter turn over kFitFrames frames, and the model
-    // file's body is fitted to it.
-    if (!unfitted.fit_pose)
-      throw std::invalid_argument("--tracked-body fit: the body model has no fit_pose");
-    const FitStance standing = fitPoseAt(unfitted, truth[0]);
-    std::vector<std::vector<SilhouetteMask>> fit_frames(kFitFrames);
-    std::vector<cv::Mat> fit_images;
-    for (int f = 0; f < kFitFrames; ++f) {
-      Eigen::VectorXd turned = standing.pose;
-      if (standing.turn_dof >= 0)
-        turned[standing.turn_dof] += M_PI / 2 * f / std::max(1, kFitFrames - 1);
-      renderer.renderSilhouettes(turned, fit_images);
-      for (std::size_t c = 0; c < rig.size(); ++c) {
-        // Frames before the motion's own (negative), so their defects differ from its frames'.
-        if (config.noise == "realistic")
-          corruptSilhouette(fit_images[c], config.seed, -1 - f, static_cast<int>(c));
-        fit_frames[f].emplace_back(fit_images[c]);
-      }
-    }
-    const auto start = std::chrono::steady_clock::now();
-    std::string why_not;
-    body_fit = fitBodyInPose(unfitted, rig, fit_frames, options.likelihood, {}, &why_not);
-    body_fit_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!body_fit) throw std::runtime_error("--tracked-body fit: no subject found: " + why_not);
-    tracked_body = proportionedBodyModel(unfitted, body_fit->proportions);
-  } else if (config.tracked_body != "truth") {
-    throw std::invalid_argument("--tracked-body: expected truth, default or fit, got '" +
-                                config.tracked_body + "'");
-  }
+  const TrackedBody tracked_body =
+      trackedBodyFor(config, subject, rig, renderer, options.likelihood);
   // The model at a rate 1/k times its own has k times its speed limits per frame.
-  const BodyModel tracked = atFrameRate(tracked_body, tracked_body.frame_rate / config.speed_scale);
-  std::unique_ptr<PoseFilter> filter;
-  AcquiringFilter* acquiring = nullptr;
-  const auto makeTrackerFilter = [&] {
-    return makeFilter(config.method, tracked, rig, options, pool);
-  };
-  if (config.start_offset == "acquire" || config.lost_below) {
-    // The filter finds the body itself, in the model's stances, as mocapd does on real cameras:
-    // at the start when there is no true first pose, and again when it declares itself lost.
-    AcquiringOptions acquiring_options;
-    acquiring_options.lost_below = config.lost_below.value_or(0);
-    acquiring_options.lost_after = config.lost_after;
-    auto owned =
-        std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
-                                          options.likelihood, makeTrackerFilter, acquiring_options);
-    acquiring = owned.get();
-    filter = std::move(owned);
-  } else {
-    filter = makeTrackerFilter();
-  }
+  const BodyModel tracked =
+      atFrameRate(tracked_body.body, tracked_body.body.frame_rate / config.speed_scale);
+  const TrackerUnderTest tracker = makeTracker(config, tracked, rig, options, pool);
   if (config.start_offset != "acquire")
-    filter->reset(misplaced(model, truth[0], config.start_offset));
+    tracker.filter->reset(misplaced(model, truth[0], config.start_offset));
 
-  SceneRenderer tracked_renderer(tracked_body, rig);  // draws the estimate in the overlays
+  SceneRenderer tracked_renderer(tracked_body.body, rig);  // draws the estimate in the overlays
+  HumanRunScore score(model, tracked_body.body, rig, options.likelihood,
+                      config.tracked_body != "truth", config.trace_path);
   const int missed_limb = model.segmentIndex("l_forearm");
-  KinematicsData tracked_kin(tracked_body);
-  Eigen::VectorXd floor_pose = truth[0];
-  double body_floor_mm = 0;  // summed over the frames
-  IkOptions floor_ik;
-  floor_ik.prior_weight = 0;
-  floor_ik.respect_speed_limits = false;
   std::vector<cv::Mat> images;
   std::vector<SilhouetteMask> masks(rig.size());
-  std::vector<double> per_joint(model.points.size(), 0.0);
-  std::vector<double> frame_error;
-  std::map<std::string, int> lost_causes = {
-      {"legs_swapped", 0}, {"heading", 0}, {"legs", 0}, {"arms", 0}, {"other", 0}};
-  int lost_truth_ahead = 0;  // lost frames whose truth scores over 20 units above the estimate
-  const std::vector<Limb> limbs = limbsOf(model);
-  std::vector<std::vector<double>> limb_error(limbs.size());  // per limb, per frame
-  // Limbs by name, for the lost frames' causes: an index into `limbs`, -1 if the model lacks it.
-  const auto limbNamed = [&](std::string_view name) {
-    for (std::size_t l = 0; l < limbs.size(); ++l)
-      if (limbs[l].name == name) return static_cast<int>(l);
-    return -1;
-  };
-  const int left_leg = limbNamed("left_leg"), right_leg = limbNamed("right_leg");
-  const int left_arm = limbNamed("left_arm"), right_arm = limbNamed("right_arm");
-  const auto latestError = [&](int l) { return l >= 0 ? limb_error[l].back() : 0.0; };
   long evaluations = 0, renders = 0;
   int frames_without_pose = 0;  // an acquiring filter that found no subject: its q is the stance
   double tracking_seconds = 0;
-  // Per-frame trace: tells a search failure (the estimate scores below the truth) from an
-  // ambiguity of the silhouettes (it scores as well or better while far off).
-  std::ofstream trace;
-  std::unique_ptr<FullBodyEvaluator> scorer, estimate_scorer;
-  if (!config.trace_path.empty()) {
-    trace.open(config.trace_path);
-    if (!trace) throw std::runtime_error("--trace: cannot write '" + config.trace_path + "'");
-    trace << "frame,mpjpe_mm,truth_log_likelihood,estimate_log_likelihood,heading_error_deg";
-    for (const Limb& limb : limbs) trace << ',' << limb.name << "_mm";
-    trace << ",legs_swapped_mm,silhouette_pixels,estimate_fit,found\n";
-    scorer =
-        std::make_unique<FullBodyEvaluator>(model, rig, options.likelihood.points_per_circle, 1);
-    estimate_scorer = std::make_unique<FullBodyEvaluator>(tracked_body, rig,
-                                                          options.likelihood.points_per_circle, 1);
-  }
-  // Heading: the direction of the hip axis (right hip to left hip) on the ground plane.
-  const int l_hip = model.pointIndex("l_hip"), r_hip = model.pointIndex("r_hip");
-  auto heading = [&](const std::vector<Eigen::Vector3d>& points) {
-    const Eigen::Vector3d axis = points[l_hip] - points[r_hip];
-    return std::atan2(axis.y(), axis.x());
-  };
   std::mt19937_64 skip_rng(config.seed ^ 0x5c1b'7a7e'0000'0000ULL);  // apart from the filter's
-  std::vector<int> tracked_frames;  // the frames stepped and scored
   for (int f = 0; f < frames; ++f) {
     if (config.skip_rate > 0 && f > 0 &&
         std::uniform_real_distribution<double>(0, 1)(skip_rng) < config.skip_rate)
       continue;
-    tracked_frames.push_back(f);
-    const bool realistic = config.noise == "realistic";
-    // A limb missed by segmentation in one camera for 5 frames out of every 50.
-    if (realistic && missed_limb >= 0 && f % 50 >= 20 && f % 50 < 25)
-      renderer.hideSegment(0, missed_limb);
-    renderer.renderSilhouettes(truth[f], images);
-    renderer.clearHidden();
-    const bool out_of_view =
-        f >= config.dropout_at && f < config.dropout_at + config.dropout_frames;
-    for (std::size_t c = 0; c < rig.size(); ++c) {
-      if (realistic) corruptSilhouette(images[c], config.seed, f, static_cast<int>(c));
-      if (out_of_view) images[c].setTo(0);
-      masks[c] = SilhouetteMask(images[c]);
-    }
-    if (config.reset_every > 0 && f > 0 && f % config.reset_every == 0) filter->reset(truth[f - 1]);
+    renderFrame(config, f, truth[f], missed_limb, renderer, images, masks);
+    if (config.reset_every > 0 && f > 0 && f % config.reset_every == 0)
+      tracker.filter->reset(truth[f - 1]);
     const auto start = std::chrono::steady_clock::now();
-    const FrameEstimate estimate = filter->step(masks);
+    const FrameEstimate estimate = tracker.filter->step(masks);
     tracking_seconds +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     evaluations += estimate.evaluations;
     renders += estimate.segment_renders;
     frames_without_pose += !estimate.found;
-    const auto true_points = renderer.truthPoints(truth[f]);
-    forwardKinematics(tracked_body, tracked_kin, estimate.q);
-    const auto tracked_points = pointPositions(tracked_body, tracked_kin);
-    double sum = 0;
-    for (std::size_t p = 0; p < true_points.size(); ++p) {
-      const double e = 1000 * (true_points[p] - tracked_points[p]).norm();
-      per_joint[p] += e;
-      sum += e;
-    }
-    frame_error.push_back(sum / true_points.size());
-    if (config.tracked_body != "truth") {
-      // The tracked body's floor: the pose of it nearest the true joints (warm-started, pulled
-      // toward nothing), which no tracker can beat on this body.
-      const IkResult nearest =
-          fitPoseToPoints(tracked_body, true_points, floor_pose, floor_pose, floor_ik);
-      floor_pose = nearest.q;
-      forwardKinematics(tracked_body, tracked_kin, floor_pose);
-      const auto floor_points = pointPositions(tracked_body, tracked_kin);
-      double floor_sum = 0;
-      for (std::size_t p = 0; p < true_points.size(); ++p)
-        floor_sum += 1000 * (true_points[p] - floor_points[p]).norm();
-      body_floor_mm += floor_sum / true_points.size();
-    }
-    for (std::size_t l = 0; l < limbs.size(); ++l) {
-      double limb_sum = 0;
-      for (int p : limbs[l].points) limb_sum += 1000 * (true_points[p] - tracked_points[p]).norm();
-      limb_error[l].push_back(limb_sum / limbs[l].points.size());
-    }
+    score.add(f, truth[f], renderer.truthPoints(truth[f]), estimate.q, estimate.found, masks);
     if (!config.overlay_dir.empty() && f % 10 == 0)
       writeOverlays(config.overlay_dir, f, masks, tracked_renderer, estimate.q);
-    const double heading_error =
-        l_hip >= 0 && r_hip >= 0
-            ? std::remainder(heading(tracked_points) - heading(true_points), 2 * M_PI) * 180 / M_PI
-            : 0.0;
-    const double legs_swapped =
-        left_leg >= 0 && right_leg >= 0
-            ? legsSwappedError(limbs[left_leg], limbs[right_leg], true_points, tracked_points)
-            : NAN;
-    const bool lost = frame_error.back() > 100.0;
-    if (lost)
-      ++lost_causes[lostFrameCause(latestError(left_leg), latestError(right_leg),
-                                   std::max(latestError(left_arm), latestError(right_arm)),
-                                   heading_error, legs_swapped)];
-    if (scorer) {
-      const double truth_score =
-          logLikelihood(options.likelihood, scorer->evaluate(truth[f], masks, 0));
-      const PixelCounts estimate_counts = estimate_scorer->evaluate(estimate.q, masks, 0);
-      const double estimate_score = logLikelihood(options.likelihood, estimate_counts);
-      lost_truth_ahead += lost && truth_score > estimate_score + 20;
-      trace << f << ',' << frame_error.back() << ',' << truth_score << ',' << estimate_score << ','
-            << heading_error;
-      for (const auto& error : limb_error) trace << ',' << error.back();
-      long silhouette_pixels = 0;
-      for (const SilhouetteMask& mask : masks) silhouette_pixels += mask.total();
-      trace << ',' << legs_swapped << ',' << silhouette_pixels << ','
-            << silhouetteFit(estimate_counts, masks) << ',' << estimate.found << '\n';
-    }
   }
 
   // Averages over the frames tracked (all of them unless some were skipped).
-  const int scored = static_cast<int>(tracked_frames.size());
-  nlohmann::json joints = nlohmann::json::object();
-  for (std::size_t p = 0; p < per_joint.size(); ++p)
-    joints[model.points[p].name] = per_joint[p] / scored;
-  double mpjpe = 0, worst = 0, residual = 0;
-  int lost = 0, recovery = -1;
-  for (int i = 0; i < scored; ++i) {
-    mpjpe += frame_error[i];
-    worst = std::max(worst, frame_error[i]);
-    lost += frame_error[i] > 100.0;
-    if (recovery < 0 && frame_error[i] < 50.0) recovery = tracked_frames[i];
-  }
-  // Per limb: mean error, frames lost (limb error over 100 mm), and for an arm misplaced at the
-  // start, the first frame that arm is back under 50 mm.
-  nlohmann::json per_limb = nlohmann::json::object(), limb_lost = nlohmann::json::object();
-  int arm_recovery = -1;
-  for (std::size_t l = 0; l < limbs.size(); ++l) {
-    double limb_sum = 0;
-    int limb_lost_frames = 0;
-    for (int i = 0; i < scored; ++i) {
-      limb_sum += limb_error[l][i];
-      limb_lost_frames += limb_error[l][i] > 100.0;
-      if (config.start_offset == "arm60" && static_cast<int>(l) == left_arm && arm_recovery < 0 &&
-          limb_error[l][i] < 50.0)
-        arm_recovery = tracked_frames[i];
-    }
-    per_limb[limbs[l].name] = limb_sum / scored;
-    limb_lost[limbs[l].name] = limb_lost_frames;
-  }
-  int residual_count = 0;
-  for (int f = 0; f < frames; ++f)
-    for (double r : retarget.residual_mm[f]) residual += r, ++residual_count;
-  const bool refined = config.method == "factored" && options.refine.share > 0;
+  const int scored = score.scoredFrames();
   nlohmann::json out = {
       {"experiment", "human"},
       {"motion", std::filesystem::path(config.motion_path).filename().string()},
@@ -375,94 +378,23 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       {"noise", config.noise},
       {"seed", config.seed},
       {"threads", pool.size()},
-      {"injection", options.injection.share},
-      {"inject",
-       options.injection.redraw == InjectionOptions::Redraw::kSegment ? "segment" : "dof"},
-      {"refine", refined ? options.refine.share : 0.0},
-      {"refine_max", refined ? options.refine.max_evaluations : 0},
-      {"refine_hold", refined && options.refine.hold},
-      {"refine_plant", refined && options.refine.plant},
-      {"refine_unexplained", refined && options.refine.unexplained},
-      {"refine_swap", refined && options.refine.swap.enabled},
-      {"refine_swap_knees_only",
-       refined && options.refine.swap.enabled && options.refine.swap.knees_only},
-      {"refine_swap_margin",
-       refined && options.refine.swap.enabled ? options.refine.swap.margin : 0.0},
-      {"refine_restart_share", refined ? options.refine.restart_share : 0.0},
       {"evals_per_frame", static_cast<double>(evaluations) / scored},
       {"segment_renders_per_frame", static_cast<double>(renders) / scored},
-      {"mpjpe_mm", mpjpe / scored},
-      {"per_joint_mm", joints},
-      {"per_limb_mm", per_limb},
-      {"limb_lost_frames", limb_lost},
-      {"max_frame_mpjpe_mm", worst},
-      {"lost_frames", lost},
-      {"lost_frame_causes", lost_causes},
       {"seconds_per_frame", tracking_seconds / scored},
-      {"ground_truth_fit_residual_mm", residual_count ? residual / residual_count : 0.0},
+      {"ground_truth_fit_residual_mm", subject.fit_residual_mm},
   };
-  if (config.reset_every > 0) out["reset_every"] = config.reset_every;
-  if (config.start_frame > 0) out["start_frame"] = config.start_frame;
-  if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
-  if (config.subject_scale != 1) out["subject_scale"] = config.subject_scale;
-  if (config.tracked_body != "truth") {
-    out["tracked_body"] = config.tracked_body;
-    out["body_floor_mm"] = body_floor_mm / scored;
-  }
-  if (body_fit) {
-    out["body_scale"] = body_fit->scale;
-    nlohmann::json proportions = nlohmann::json::object();
-    for (int k = 0; k < BodyProportions::kCount; ++k)
-      proportions[BodyProportions::name(k)] = body_fit->proportions[k];
-    out["body_proportions"] = proportions;
-    out["body_fit_evaluations"] = body_fit->evaluations;
-    out["body_fit_seconds"] = body_fit_seconds;
-  }
-  if (config.reportsProductPath()) {
-    // Fields of the product path's summary, left out of a run that names none of its flags so
-    // that such a run's output stays as it was.
-    out["scenario"] = config.scenario.empty() ? nlohmann::json() : nlohmann::json(config.scenario);
-    out["silhouettes"] = config.silhouettes;
-    out["subject_seed"] =
-        config.subject_seed ? nlohmann::json(*config.subject_seed) : nlohmann::json();
-    out["longest_loss_frames"] = longestLoss(frame_error);
-    const std::optional<int> lock = firstLock(frame_error);
-    out["frames_to_first_lock"] = lock ? nlohmann::json(tracked_frames[*lock]) : nlohmann::json();
-    if (const std::optional<BodyProportions> subject = renderer.subjectProportions(unfitted)) {
-      nlohmann::json proportions = nlohmann::json::object();
-      for (int k = 0; k < BodyProportions::kCount; ++k)
-        proportions[BodyProportions::name(k)] = (*subject)[k];
-      out["subject_proportions"] = proportions;
-      out["subject_height_m"] = renderer.subjectParams()->height;
-    }
-  }
-  if (config.skip_rate > 0) {
-    out["skip_rate"] = config.skip_rate;
-    out["tracked_frames"] = scored;
-  }
-  // With --trace, which scores the truth as well: lost frames that are a failure of the search
-  // (the truth scores higher) rather than an ambiguity of the silhouettes.
-  if (scorer) out["lost_frames_truth_ahead"] = lost_truth_ahead;
-  if (acquiring) {
-    out["acquisitions"] = acquiring->acquisitions();
+  describeFilter(config, options, out);
+  score.summarize(out);
+  describeOptionalFields(config, subject, renderer, tracked_body, score, out);
+  if (tracker.acquiring) {
+    out["acquisitions"] = tracker.acquiring->acquisitions();
     std::vector<std::string> stances = {"neutral"};
     for (const Stance& stance : tracked.stances) stances.push_back(stance.name);
     out["stances"] = stances;
     out["frames_without_pose"] = frames_without_pose;
     out["lost_below"] = config.lost_below.value_or(0);
     out["lost_after"] = config.lost_after;
-    out["losses"] = acquiring->losses();
-  }
-  if (config.dropout_frames > 0) {
-    out["dropout_at"] = config.dropout_at;
-    out["dropout_frames"] = config.dropout_frames;
-  }
-  if (config.start_offset != "none") {
-    out["start_offset"] = config.start_offset;
-    out["recovery_frames"] = recovery >= 0 ? nlohmann::json(recovery) : nlohmann::json();
-    if (config.start_offset == "arm60")
-      out["arm_recovery_frames"] =
-          arm_recovery >= 0 ? nlohmann::json(arm_recovery) : nlohmann::json();
+    out["losses"] = tracker.acquiring->losses();
   }
   return out;
 }
