@@ -256,6 +256,9 @@ Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std:
   if (!cameras.IsSequence() || cameras.size() == 0) return fail("cameras", "expected a non-empty list");
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     const std::string prefix = "cameras[" + std::to_string(i) + "].";
+    // yaml-cpp throws on a field of a scalar or a list: check the shape first.
+    if (!cameras[i].IsMap())
+      return fail("cameras[" + std::to_string(i) + "]", "expected a map (name, width, height, ...)");
     SessionCamera c;
     if (Status s = scalar(cameras[i]["name"], prefix + "name", c.name); !s.ok()) return s;
     if (Status s = scalar(cameras[i]["width"], prefix + "width", c.width); !s.ok()) return s;

@@ -119,16 +119,7 @@ int readPositiveInt(const cv::FileNode& node, const std::string& where) {
   return v;
 }
 
-}  // namespace
-
-Rig loadRig(const std::string& path) {
-  cv::FileStorage fs;
-  try {
-    fs.open(path, cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error(path + ": not a readable OpenCV FileStorage file: " + e.err);
-  }
-  if (!fs.isOpened()) throw std::runtime_error(path + ": cannot open camera rig file");
+Rig readRig(const cv::FileStorage& fs, const std::string& path) {
   const int count = readPositiveInt(fs["camera_count"], path + ": camera_count");
   Rig rig;
   for (int i = 0; i < count; ++i) {
@@ -169,6 +160,24 @@ Rig loadRig(const std::string& path) {
     rig.push_back(c);
   }
   return rig;
+}
+
+}  // namespace
+
+Rig loadRig(const std::string& path) {
+  cv::FileStorage fs;
+  try {
+    fs.open(path, cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(path + ": not a readable OpenCV FileStorage file: " + e.err);
+  }
+  if (!fs.isOpened()) throw std::runtime_error(path + ": cannot open camera rig file");
+  // OpenCV asserts on a file of another shape (a list or a scalar where a map belongs): named here.
+  try {
+    return readRig(fs, path);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(path + ": not a camera rig: " + e.err);
+  }
 }
 
 }  // namespace mocap

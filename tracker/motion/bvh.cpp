@@ -110,6 +110,10 @@ class Parser {
 
   void parseJoint(BvhSkeleton& skeleton, int parent, const std::string& name, int line,
                   bool end_site) {
+    // A person is about ten joints deep; a limit keeps a malformed file from exhausting the stack.
+    constexpr int kMaxDepth = 256;
+    if (++depth_ > kMaxDepth)
+      fail(line, "joints nested deeper than " + std::to_string(kMaxDepth) + " levels");
     const int index = static_cast<int>(skeleton.joints.size());
     skeleton.joints.push_back({});
     skeleton.joints[index].name = name;
@@ -150,6 +154,7 @@ class Parser {
       }
     }
     if (!has_offset) fail(line, what + ": missing OFFSET");
+    --depth_;
   }
 
   void parseChannels(BvhSkeleton& skeleton, int index, const std::string& what) {
@@ -194,6 +199,10 @@ class Parser {
     const double declared = header(i, {"Frames:"}, "Frames:");
     if (declared < 0 || declared != std::floor(declared))
       fail(static_cast<int>(i), "Frames: must be a whole number >= 0");
+    // Checked before the count becomes an integer, which cannot hold every number a file may write.
+    if (declared > static_cast<double>(lines_.size()))
+      fail(static_cast<int>(i), "Frames: more frames than the file has lines (" +
+                                    std::to_string(lines_.size()) + ")");
     const double frame_time = header(i, {"Frame", "Time:"}, "Frame Time:");
     if (frame_time <= 0) fail(static_cast<int>(i), "Frame Time: must be positive");
     bvh.motion.frame_time = frame_time;
@@ -235,6 +244,7 @@ class Parser {
   std::vector<std::string> lines_;
   std::vector<Token> tokens_;
   std::size_t next_ = 0;
+  int depth_ = 0;  // of the joint being parsed
 };
 
 }  // namespace

@@ -1,0 +1,79 @@
+// Inputs that crashed the readers in the fuzz build (tests/fuzz, with ASan and UBSan), each fed to
+// its parser, which must now refuse it with an error naming the file and what is wrong.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "drivers/record/session_format.h"
+#include "tracker/model/camera.h"
+#include "tracker/motion/bvh.h"
+
+namespace mocap {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string writeTempFile(const std::string& name, const std::string& text) {
+  const std::filesystem::path path =
+      std::filesystem::path(testing::TempDir()) / (std::to_string(getpid()) + "_" + name);
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+// OpenCV asserted (cv::Exception, "isMap()") on a rig whose top level is not a map.
+TEST(FuzzFindingsTest, RigWhoseTopLevelIsNotAMapIsRefusedByName) {
+  for (const std::string& top : {"- camera_count\n- 2\n", "just text\n"}) {
+    const std::string path = writeTempFile("rig_not_a_map.yaml", "%YAML:1.0\n---\n" + top);
+    try {
+      loadRig(path);
+      FAIL() << "loaded a rig from: " << top;
+    } catch (const std::runtime_error& e) {
+      EXPECT_THAT(e.what(), HasSubstr(path));
+    }
+  }
+}
+
+// yaml-cpp threw YAML::BadSubscript out of parseManifest for a camera that is not a map.
+TEST(FuzzFindingsTest, ManifestCameraThatIsNotAMapIsAnError) {
+  const std::string manifest =
+      "format_version: 1\nsoftware_version: x\nstart_time_utc: t\nstart_monotonic_ns: 0\n"
+      "calibration: ''\ncameras: [cam0]\n";
+  const Expected<SessionManifest> parsed = parseManifest(manifest, "session/manifest.yaml");
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_EQ(parsed.error(),
+            "session/manifest.yaml: cameras[0]: expected a map (name, width, height, ...)");
+}
+
+// Converting "Frames: 1e300" to an integer was undefined behaviour (UBSan: float-cast-overflow).
+TEST(FuzzFindingsTest, BvhFrameCountNoIntegerHoldsIsAnError) {
+  const std::string bvh =
+      "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 1 Xposition\n}\n"
+      "MOTION\nFrames: 1e300\nFrame Time: 0.04\n1\n";
+  try {
+    parseBvh(bvh, "huge.bvh");
+    FAIL() << "parsed a file declaring 1e300 frames";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "huge.bvh:8: Frames: more frames than the file has lines (10)");
+  }
+}
+
+// A deeply nested hierarchy recursed until the stack overflowed (ASan: stack-overflow).
+TEST(FuzzFindingsTest, BvhNestedTooDeepIsAnError) {
+  std::string bvh = "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\n";
+  for (int depth = 0; depth < 1000; ++depth) bvh += "JOINT b\n{\nOFFSET 0 0 0\n";
+  bvh += std::string(1001, '}') + "\nMOTION\nFrames: 0\nFrame Time: 0.04\n";
+  try {
+    parseBvh(bvh, "deep.bvh");
+    FAIL() << "parsed joints nested 1000 deep";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "deep.bvh:770: joints nested deeper than 256 levels");
+  }
+}
+
+}  // namespace
+}  // namespace mocap
