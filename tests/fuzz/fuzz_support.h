@@ -46,11 +46,14 @@ class ScratchDirectory {
     for (const auto& entry : std::filesystem::directory_iterator(path_))
       std::filesystem::remove_all(entry.path());
   }
-  // Writes `bytes` to `relative` inside the directory, creating its parent folders.
+  // Writes `bytes` to `relative` inside the directory, creating its parent folders; nothing if a
+  // file stands where a folder should.
   std::filesystem::path write(const std::filesystem::path& relative, std::string_view bytes) const {
     const std::filesystem::path file = path_ / relative;
-    std::filesystem::create_directories(file.parent_path());
-    std::ofstream(file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    std::error_code error;
+    std::filesystem::create_directories(file.parent_path(), error);
+    if (!error)
+      std::ofstream(file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     return file;
   }
 

@@ -87,13 +87,14 @@ void saveRig(const std::string& path, const Rig& rig) {
 
 namespace {
 
-// Any non-empty OpenCV matrix at `node` (OpenCV asserts on a malformed one: named here instead).
+// Any non-empty OpenCV matrix at `node`. OpenCV asserts on a malformed one, and throws
+// std::length_error for one without its "dt": named here instead.
 cv::Mat readAnyMatrix(const cv::FileNode& node, const std::string& where) {
   if (node.empty()) throw std::runtime_error(where + ": missing");
   cv::Mat m;
   try {
     node >> m;
-  } catch (const cv::Exception&) {
+  } catch (const std::exception&) {
     throw std::runtime_error(where + ": not an OpenCV matrix");
   }
   if (m.empty()) throw std::runtime_error(where + ": not an OpenCV matrix");
