@@ -87,14 +87,13 @@ void saveRig(const std::string& path, const Rig& rig) {
 
 namespace {
 
-// Any non-empty OpenCV matrix at `node`. OpenCV asserts on a malformed one, and throws
-// std::length_error for one without its "dt": named here instead.
+// Any non-empty OpenCV matrix at `node` (OpenCV asserts on a malformed one: named here instead).
 cv::Mat readAnyMatrix(const cv::FileNode& node, const std::string& where) {
   if (node.empty()) throw std::runtime_error(where + ": missing");
   cv::Mat m;
   try {
     node >> m;
-  } catch (const std::exception&) {
+  } catch (const cv::Exception&) {
     throw std::runtime_error(where + ": not an OpenCV matrix");
   }
   if (m.empty()) throw std::runtime_error(where + ": not an OpenCV matrix");
@@ -171,6 +170,9 @@ Rig loadRig(const std::string& path) {
     fs.open(path, cv::FileStorage::READ);
   } catch (const cv::Exception& e) {
     throw std::runtime_error(path + ": not a readable OpenCV FileStorage file: " + e.err);
+  } catch (const std::exception& e) {
+    // OpenCV's YAML parser lets some malformed text out as std::length_error.
+    throw std::runtime_error(path + ": not a readable OpenCV FileStorage file: " + e.what());
   }
   if (!fs.isOpened()) throw std::runtime_error(path + ": cannot open camera rig file");
   // OpenCV asserts on a file of another shape (a list or a scalar where a map belongs): named here.
