@@ -17,6 +17,7 @@
 #include <openssl/x509.h>
 #include <yaml-cpp/yaml.h>
 
+#include "server/config_parser.h"
 #include "tracker/model/body_model.h"
 #include "tracker/motion/joint_map.h"
 
@@ -61,89 +62,9 @@ X509Ptr readPemCertificate(const std::string& path) {
                  X509_free);
 }
 
-class ConfigParser {
+class ConfigParser : public ConfigReader {
  public:
-  ConfigParser(std::string source, std::filesystem::path base)
-      : source_(std::move(source)), base_(std::move(base)) {}
-
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& field,
-                         const std::string& reason) const {
-    std::ostringstream msg;
-    msg << source_;
-    if (node.IsDefined() && node.Mark().line >= 0) msg << ":" << node.Mark().line + 1;
-    msg << ": " << field << ": " << reason;
-    throw ConfigError(msg.str());
-  }
-
-  void onlyKeys(const YAML::Node& map, const std::string& field,
-                const std::set<std::string>& allowed) const {
-    if (!map.IsMap()) fail(map, field.empty() ? "(top level)" : field, "expected a map");
-    for (const auto& entry : map) {
-      const std::string key = entry.first.Scalar();
-      if (!allowed.count(key)) {
-        std::string known;
-        for (const std::string& k : allowed) known += (known.empty() ? "" : ", ") + k;
-        fail(entry.first, join(field, key), "unknown key (known: " + known + ")");
-      }
-    }
-  }
-
-  static std::string join(const std::string& parent, const std::string& key) {
-    return parent.empty() ? key : parent + "." + key;
-  }
-
-  // What a value that is not a scalar is, for the error that refuses it.
-  static std::string kindOf(const YAML::Node& node) {
-    if (node.IsSequence()) return "a list";
-    if (node.IsMap()) return "a map";
-    return node.IsNull() ? "nothing" : "'" + node.Scalar() + "'";
-  }
-
-  std::string text(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar() || node.Scalar().empty())
-      fail(node, field, "expected a non-empty string, got " + kindOf(node));
-    return node.Scalar();
-  }
-
-  double number(const YAML::Node& node, const std::string& field, double min, double max) const {
-    if (!node.IsScalar()) fail(node, field, "expected a number, got " + kindOf(node));
-    double value = 0;
-    try {
-      value = node.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(node, field, "expected a number, got '" + node.Scalar() + "'");
-    }
-    if (!std::isfinite(value) || value < min || value > max) {
-      std::ostringstream reason;
-      reason << "must be between " << min << " and " << max << ", got " << node.Scalar();
-      fail(node, field, reason.str());
-    }
-    return value;
-  }
-
-  int integer(const YAML::Node& node, const std::string& field, int min, int max) const {
-    const double value = number(node, field, min, max);
-    if (value != std::floor(value))
-      fail(node, field, "expected a whole number, got " + node.Scalar());
-    return static_cast<int>(value);
-  }
-
-  bool boolean(const YAML::Node& node, const std::string& field) const {
-    try {
-      return node.as<bool>();
-    } catch (const YAML::Exception&) {
-      fail(node, field, "expected true or false, got '" + node.Scalar() + "'");
-    }
-  }
-
-  // An existing regular file, resolved against the config's directory.
-  std::string existingFile(const YAML::Node& node, const std::string& field) const {
-    const std::filesystem::path path = resolve(text(node, field));
-    std::error_code error;
-    if (!std::filesystem::is_regular_file(path, error))
-      fail(node, field, "no such file: " + path.string());
-    return path.string();
-  }
+  using ConfigReader::ConfigReader;
 
   // gRPC, given a certificate and key it cannot serve, only fails to bind, with no word of which
   // file is wrong: they are read here first.
@@ -175,11 +96,6 @@ class ConfigParser {
     if (X509_cmp_current_time(X509_get0_notBefore(cert.get())) > 0)
       fail(tls["cert"], "tls.cert",
            cert_path + " is not valid before " + asnTime(X509_get0_notBefore(cert.get())));
-  }
-
-  std::filesystem::path resolve(const std::string& path) const {
-    const std::filesystem::path p(path);
-    return p.is_absolute() ? p : base_ / p;
   }
 
   CameraConfig camera(const YAML::Node& node, const std::string& field, int index) const {
@@ -472,7 +388,7 @@ class ConfigParser {
 
   ServerConfig parse(const YAML::Node& root) const {
     ServerConfig config;
-    config.source = source_;
+    config.source = source();
     onlyKeys(root, "",
              {"cameras",
               "calibration",
@@ -537,10 +453,6 @@ class ConfigParser {
     }
     return config;
   }
-
- private:
-  std::string source_;
-  std::filesystem::path base_;
 };
 
 }  // namespace
