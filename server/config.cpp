@@ -206,6 +206,43 @@ class ConfigParser : public ConfigReader {
     return web;
   }
 
+  // `vmc: {send_to: [HOST:PORT, ...]}`. Not resolved here: a receiver's name may resolve only once
+  // the network is up.
+  VmcSettings vmc(const YAML::Node& node) const {
+    onlyKeys(node, "vmc", {"send_to"});
+    VmcSettings vmc;
+    const YAML::Node list = node["send_to"];
+    if (!list || list.IsNull()) return vmc;
+    if (!list.IsSequence())
+      fail(list, "vmc.send_to", "expected a list of host:port, got " + kindOf(list));
+    for (std::size_t i = 0; i < list.size(); ++i)
+      vmc.send_to.push_back(vmcTarget(list[i], "vmc.send_to[" + std::to_string(i) + "]"));
+    return vmc;
+  }
+
+  // One receiver: HOST:PORT, an IPv6 address in brackets ([::1]:39539).
+  VmcTarget vmcTarget(const YAML::Node& node, const std::string& field) const {
+    const std::string entry = text(node, field);
+    const std::size_t colon = entry.rfind(':');
+    if (colon == std::string::npos) fail(node, field, "expected host:port, got '" + entry + "'");
+    VmcTarget target;
+    target.host = entry.substr(0, colon);
+    const bool bracketed =
+        target.host.size() > 2 && target.host.front() == '[' && target.host.back() == ']';
+    if (bracketed) target.host = target.host.substr(1, target.host.size() - 2);
+    if (!bracketed && target.host.find(':') != std::string::npos)
+      fail(node, field, "an IPv6 address goes in brackets ([::1]:39539), got '" + entry + "'");
+    const std::string port = entry.substr(colon + 1);
+    if (target.host.empty() || target.host.find_first_of("[] ") != std::string::npos ||
+        port.empty() || port.size() > 5 ||
+        port.find_first_not_of("0123456789") != std::string::npos)
+      fail(node, field, "expected host:port, got '" + entry + "'");
+    target.port = std::stoi(port);
+    if (target.port < 1 || target.port > 65535)
+      fail(node, field, "the port must be between 1 and 65535, got " + port);
+    return target;
+  }
+
   // scene_subject_seed, scene_motion_units, scene_motion_joint_map: with a scene_motion only.
   void sceneSubjectKeys(const YAML::Node& root, ServerConfig& config) const {
     for (const char* key : {"scene_subject_seed", "scene_motion_units", "scene_motion_joint_map"})
@@ -397,6 +434,7 @@ class ConfigParser : public ConfigReader {
               "sync",
               "listen",
               "web",
+              "vmc",
               "recording_directory",
               "background_directory",
               "silhouettes",
@@ -442,6 +480,7 @@ class ConfigParser : public ConfigReader {
     silhouetteKeys(root, config);
     securityKeys(root, config);
     if (root["web"]) config.web = web(root["web"]);
+    if (root["vmc"]) config.vmc = vmc(root["vmc"]);
 
     if (root["log_level"]) {
       const std::string level = text(root["log_level"], "log_level");

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "drivers/camera_driver.h"
+#include "server/vmc_target.h"
 #include "tracker/filters/filter.h"
 #include "tracker/motion/bvh.h"
 
@@ -64,6 +65,12 @@ struct SyncSettings {
 struct WebSettings {
   bool enabled = true;
   std::string listen = "127.0.0.1:8080";
+};
+
+// Avatar apps the poses are sent to over VMC (server/vmc_sender.h): `vmc: {send_to: [HOST:PORT,
+// ...]}`; none: off.
+struct VmcSettings {
+  std::vector<VmcTarget> send_to;
 };
 
 struct ServerConfig {
@@ -123,6 +130,7 @@ struct ServerConfig {
   std::string tls_client_ca_file;
   std::string bearer_token;  // empty: no token required
   WebSettings web;
+  VmcSettings vmc;
   LogLevel log_level = LogLevel::kInfo;
   // Replay a recorded session instead of the configured cameras.
   std::string replay_directory;

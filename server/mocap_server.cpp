@@ -299,6 +299,7 @@ Status MocapServer::listen() {
 MocapServer::~MocapServer() { shutdown(); }
 
 Status MocapServer::start() {
+  startVmcSender();  // before the first pose
   const Status started = pipeline_->start();
   if (!started.ok()) return started;
   const std::string host = config_.listen.substr(0, config_.listen.rfind(':'));
@@ -328,6 +329,29 @@ void MocapServer::startWebView() {
             << "/";
 }
 
+void MocapServer::startVmcSender() {
+  if (config_.vmc.send_to.empty()) return;
+  if (makeVmcRig(*model_).empty()) {
+    logWarning() << "vmc: the body '" << model_->name
+                 << "' has no human segments to drive a humanoid with; nothing is sent";
+    return;
+  }
+  vmc_ = std::make_unique<VmcSender>(
+      config_.vmc.send_to, [this] { return pipeline_->trackedBody().model; },
+      [](const std::string& message) { logWarning() << message; });
+  const Status started = vmc_->start();
+  if (!started.ok()) {
+    logWarning() << started.message() << "; running without VMC";
+    vmc_.reset();
+    return;
+  }
+  publisher_.subscribe(vmc_.get());
+  std::string receivers;
+  for (const VmcTarget& target : config_.vmc.send_to)
+    receivers += (receivers.empty() ? "" : ", ") + target.text();
+  logInfo() << "sending the poses over VMC to " << receivers;
+}
+
 void MocapServer::shutdown() {
   if (shut_down_) return;
   shut_down_ = true;
@@ -335,6 +359,7 @@ void MocapServer::shutdown() {
   if (pipeline_) pipeline_->stop();
   publisher_.close();
   if (web_) web_->stop();
+  if (vmc_) vmc_->stop();
   if (server_) server_->Shutdown(std::chrono::system_clock::now() + kShutdownGrace);
   logInfo() << "stopped";
 }

@@ -13,6 +13,7 @@
 #include "server/mocap_service.h"
 #include "server/pipeline.h"
 #include "server/pose_publisher.h"
+#include "server/vmc_sender.h"
 #include "server/web_view.h"
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
@@ -59,6 +60,8 @@ class MocapServer {
   Status listen();
   // Serves the web view, if configured; a failure to listen is logged, not fatal.
   void startWebView();
+  // Sends the poses over VMC, if configured; a failure is logged, not fatal.
+  void startVmcSender();
   // A model's speed limits are per frame at its frame_rate; the tracker's frames come at the
   // cameras' rate (the recorded rate in a replay), so the body is tracked rescaled to it.
   void trackAtCameraRate(double fps);
@@ -74,6 +77,7 @@ class MocapServer {
   std::unique_ptr<MocapServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<WebView> web_;  // null when web.enabled is false
+  std::unique_ptr<VmcSender> vmc_;  // null without vmc.send_to
   int port_ = 0;
   bool shut_down_ = false;
 };
