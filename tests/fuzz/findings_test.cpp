@@ -27,7 +27,7 @@ std::string writeTempFile(const std::string& name, const std::string& text) {
 
 // OpenCV asserted (cv::Exception, "isMap()") on a rig whose top level is not a map.
 TEST(FuzzFindingsTest, RigWhoseTopLevelIsNotAMapIsRefusedByName) {
-  for (const std::string& top : {"- camera_count\n- 2\n", "just text\n"}) {
+  for (const std::string top : {"- camera_count\n- 2\n", "just text\n"}) {
     const std::string path = writeTempFile("rig_not_a_map.yaml", "%YAML:1.0\n---\n" + top);
     try {
       loadRig(path);
@@ -47,6 +47,22 @@ TEST(FuzzFindingsTest, RigTextOpenCvCannotParseIsRefusedByName) {
     FAIL() << "loaded a rig from text OpenCV cannot parse";
   } catch (const std::runtime_error& e) {
     EXPECT_THAT(e.what(), HasSubstr(path + ": not a readable OpenCV FileStorage file"));
+  }
+}
+
+// OpenCV allocated rows x cols (80 GB here) before reading a matrix's data (ASan: out of memory).
+TEST(FuzzFindingsTest, RigMatrixOfAHugeSizeIsRefusedBeforeAllocating) {
+  const std::string path = writeTempFile(
+      "rig_huge_matrix.yaml",
+      "%YAML:1.0\n---\ncamera_count: 1\ncamera_0:\n   image_width: 780\n   image_height: 580\n"
+      "   camera_matrix: !!opencv-matrix\n      rows: 100000\n      cols: 100000\n      dt: d\n"
+      "      data: [ 1200., 0., 390., 0., 1200., 290., 0., 0., 1. ]\n");
+  try {
+    loadRig(path);
+    FAIL() << "loaded a rig with a 100000x100000 camera matrix";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(e.what(),
+              path + ": camera_0.camera_matrix: 100000x100000 is larger than any matrix of a rig");
   }
 }
 

@@ -90,8 +90,17 @@ namespace {
 // Any non-empty OpenCV matrix at `node` (OpenCV asserts on a malformed one: named here instead).
 cv::Mat readAnyMatrix(const cv::FileNode& node, const std::string& where) {
   if (node.empty()) throw std::runtime_error(where + ": missing");
+  // OpenCV allocates rows x cols before it reads the data: more than a rig's matrices hold is
+  // refused first, so a corrupt size cannot ask for gigabytes.
+  constexpr double kMaxValues = 16;
   cv::Mat m;
   try {
+    const double values =
+        static_cast<double>(static_cast<int>(node["rows"])) * static_cast<int>(node["cols"]);
+    if (values > kMaxValues)
+      throw std::runtime_error(where + ": " + std::to_string(static_cast<int>(node["rows"])) + "x" +
+                               std::to_string(static_cast<int>(node["cols"])) +
+                               " is larger than any matrix of a rig");
     node >> m;
   } catch (const cv::Exception&) {
     throw std::runtime_error(where + ": not an OpenCV matrix");
