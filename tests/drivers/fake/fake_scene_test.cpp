@@ -95,7 +95,7 @@ TEST(FakeSceneCamera, RealTimeFramesHaveIncreasingSequencesAndTimestamps) {
     }
   }
   // Frame N of both cameras is the same simulated instant.
-  const Frame& a = left.frames().back();
+  const Frame a = left.frames().back();  // a copy: frames() returns a temporary
   for (const Frame& b : right.frames()) {
     if (b.sequence == a.sequence) {
       EXPECT_EQ(b.timestamp_ns, a.timestamp_ns);
