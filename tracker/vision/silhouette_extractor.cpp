@@ -1,6 +1,7 @@
-// Silhouette extraction: gain estimate, per-channel range test (vectorized by OpenCV), shadow test
-// on the changed pixels only (gray: then joined to textured shadows by connectivity), morphology,
-// contour-based blob and hole cleanup, slow adaptation.
+// Silhouette extraction: gain estimate; one pass over the rows that normalizes, range-tests
+// (vectorized) and runs the shadow test on the changed pixels only (gray: a plane fit four pixels
+// at a time, then joined to textured shadows by connectivity); morphology on bit-packed rows;
+// contour-based blob and hole cleanup; slow adaptation.
 #include "tracker/vision/silhouette_extractor.h"
 
 #include <algorithm>
@@ -24,7 +25,8 @@ void checkOptions(const SilhouetteOptions& o) {
   require(o.shadow_min_ratio > 0 && o.shadow_min_ratio < o.shadow_max_ratio &&
               o.shadow_max_ratio <= 1,
           "shadow ratio band must satisfy 0 < min < max <= 1");
-  require(o.open_radius >= 0 && o.close_radius >= 0, "morphology radii must be >= 0");
+  require(o.open_radius >= 0 && o.close_radius >= 0 && o.open_radius < 64 && o.close_radius < 64,
+          "morphology radii must be in [0, 63]");
   require(o.min_blob_fraction >= 0 && o.max_hole_fraction >= 0, "blob/hole sizes must be >= 0");
   require(o.gain_sample_step >= 1, "gain_sample_step must be >= 1");
   require(o.adapt_interval >= 1 && o.adapt_rate >= 0 && o.adapt_rate <= 1,
@@ -44,17 +46,34 @@ int skipUnchanged(const uint8_t* unchanged, int x, int end) {
   return x;
 }
 
-cv::Mat diskKernel(int radius) {
-  return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1));
+// First column at or after x that is not zero (or `end`): weak shadows are sparse in their box.
+int skipZero(const uint8_t* row, int x, int end) {
+  while (x + 8 <= end) {
+    uint64_t word;
+    std::memcpy(&word, row + x, sizeof word);
+    if (word != 0) break;
+    x += 8;
+  }
+  while (x < end && !row[x]) ++x;
+  return x;
 }
+
+silhouette_kernels::RunMorphology diskMorphology(int radius) {
+  if (radius == 0) return {};
+  return silhouette_kernels::RunMorphology(
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1)));
+}
+
+// Rows of the gray ratio ring: the plane fit reads three floats past the last column.
+constexpr int kRatioRing = 5, kRatioPadding = 4;
 
 }  // namespace
 
 SilhouetteExtractor::SilhouetteExtractor(BackgroundModel background, SilhouetteOptions options)
     : options_(options) {
   checkOptions(options_);
-  if (options_.open_radius > 0) open_kernel_ = diskKernel(options_.open_radius);
-  if (options_.close_radius > 0) close_kernel_ = diskKernel(options_.close_radius);
+  open_ = diskMorphology(options_.open_radius);
+  close_ = diskMorphology(options_.close_radius);
   setBackground(std::move(background));
 }
 
@@ -91,35 +110,37 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
     cv::sqrBoxFilter(pixel_sigma_, noise, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
     texture_ = sum_sq - sum.mul(sum) / 25.0f - (sum_x.mul(sum_x) + sum_y.mul(sum_y)) / 50.0f;
     cv::divide(cv::max(texture_, 0.0f), noise, texture_);
-    weak_shadow_.create(stddev.size(), CV_8UC1);
-    weak_shadow_.setTo(0);
-    shadow_labels_.create(stddev.size(), CV_32SC1);
-    shadow_union_.create(stddev.size(), CV_8UC1);
+    weak_shadow_ = cv::Mat::zeros(stddev.size(), CV_8UC1);
+    scratch_.ratio_rows = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
+    scratch_.ratio_squares = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
+    scratch_.fit_columns.reserve(static_cast<std::size_t>(stddev.cols));
   }
 
   const cv::Size size = roi_.size();
   lower_.create(size, CV_8UC(channels));
   upper_.create(size, CV_8UC(channels));
-  unchanged_.create(size, CV_8UC1);
-  candidates_.create(size, CV_8UC1);
+  scratch_.normalized.create(size, CV_8UC(channels));
+  scratch_.unchanged.create(size, CV_8UC1);
+  scratch_.candidates.create(size, CV_8UC1);
+  scratch_.cleaned.create(size, CV_8UC1);
   shadow_.create(size, CV_8UC1);
-  cleaned_.create(size, CV_8UC1);
   foreground_.create(background_.size(), CV_8UC1);
   foreground_.setTo(0);
   shadow_.setTo(0);
-  gain_samples_.reserve(static_cast<std::size_t>(size.area() / options_.gain_sample_step + 1));
+  scratch_.gain_samples.reserve(
+      static_cast<std::size_t>(size.area() / options_.gain_sample_step + 1));
   gain_ = 1.0;
   frame_count_ = 0;
   rebuildBounds();
 }
 
 void SilhouetteExtractor::rebuildBounds() {
-  // Saturating conversions round and clip the float range to 8 bits, vectorized by OpenCV.
+  // mean -+ margin, rounded and clipped to 8 bits.
   const cv::Mat mean = background_.mean(roi_);
-  cv::subtract(mean, margin_, bound_scratch_);
-  bound_scratch_.convertTo(lower_, CV_8U);
-  cv::add(mean, margin_, bound_scratch_);
-  bound_scratch_.convertTo(upper_, CV_8U);
+  const int count = mean.cols * mean.channels();
+  for (int y = 0; y < mean.rows; ++y)
+    silhouette_kernels::boundsRow(mean.ptr<float>(y), margin_.ptr<float>(y), count,
+                                  lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y));
   if (background_.channels() == 1) {
     // Gray shadow test: 1 / background, and the noise of the ratio frame/background summed over
     // each 5x5 patch (unnormalized box filter), (sigma / background)^2 per pixel.
@@ -138,7 +159,8 @@ void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
   const int channels = mean.channels();
   const int step = options_.gain_sample_step;
   const cv::Mat previous = foreground_(roi_);
-  gain_samples_.clear();
+  std::vector<float>& samples = scratch_.gain_samples;
+  samples.clear();
   for (int y = step / 2; y < mean.rows; y += step) {
     const uint8_t* in = frame.ptr<uint8_t>(y);
     const float* mu = mean.ptr<float>(y);
@@ -153,151 +175,198 @@ void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
       }
       // Dark and saturated pixels do not scale with the light.
       if (expected < 20.0f * channels || observed > 250.0f * channels) continue;
-      gain_samples_.push_back(observed / expected);
+      samples.push_back(observed / expected);
     }
   }
-  if (gain_samples_.size() < 32) return;  // too little background seen: keep the last gain
-  auto middle = gain_samples_.begin() + static_cast<std::ptrdiff_t>(gain_samples_.size() / 2);
-  std::nth_element(gain_samples_.begin(), middle, gain_samples_.end());
+  if (samples.size() < 32) return;  // too little background seen: keep the last gain
+  auto middle = samples.begin() + static_cast<std::ptrdiff_t>(samples.size() / 2);
+  std::nth_element(samples.begin(), middle, samples.end());
   gain_ = *middle;
 }
 
-void SilhouetteExtractor::classifyColor() {
+void SilhouetteExtractor::classifyColorRow(int y) {
   const cv::Mat mean = background_.mean(roi_);
   const SilhouetteOptions& o = options_;
-  for (int y = 0; y < mean.rows; ++y) {
-    const uint8_t* same = unchanged_.ptr<uint8_t>(y);
-    const uint8_t* in = normalized_.ptr<uint8_t>(y);
-    const float* mu = mean.ptr<float>(y);
-    const float* sigma = pixel_sigma_.ptr<float>(y);
-    uint8_t* candidate = candidates_.ptr<uint8_t>(y);
-    uint8_t* shadow = shadow_.ptr<uint8_t>(y);
-    for (int x = 0; x < mean.cols; ++x) {
-      if (same[x]) {
-        x = skipUnchanged(same, x, mean.cols) - 1;
-        continue;
-      }
-      const float b = in[3 * x], g = in[3 * x + 1], r = in[3 * x + 2];
-      const float mb = mu[3 * x], mg = mu[3 * x + 1], mr = mu[3 * x + 2];
-      const float energy = mb * mb + mg * mg + mr * mr + 1.0f;
-      const float ratio = (b * mb + g * mg + r * mr) / energy;  // brightness relative to background
-      bool is_shadow = false;
-      if (o.suppress_shadows && ratio >= o.shadow_min_ratio && ratio <= o.shadow_max_ratio) {
-        const float db = b - ratio * mb, dg = g - ratio * mg, dr = r - ratio * mr;
-        const float tolerance =
-            o.shadow_chroma_sigmas * sigma[x] + o.shadow_chroma_ratio * ratio * std::sqrt(energy);
-        is_shadow = db * db + dg * dg + dr * dr <= tolerance * tolerance;
-      }
-      (is_shadow ? shadow : candidate)[x] = 255;
+  const uint8_t* same = scratch_.unchanged.ptr<uint8_t>(y);
+  const uint8_t* in = scratch_.normalized.ptr<uint8_t>(y);
+  const float* mu = mean.ptr<float>(y);
+  const float* sigma = pixel_sigma_.ptr<float>(y);
+  uint8_t* candidate = scratch_.candidates.ptr<uint8_t>(y);
+  uint8_t* shadow = shadow_.ptr<uint8_t>(y);
+  std::memset(candidate, 0, static_cast<std::size_t>(mean.cols));
+  std::memset(shadow, 0, static_cast<std::size_t>(mean.cols));
+  for (int x = 0; x < mean.cols; ++x) {
+    if (same[x]) {
+      x = skipUnchanged(same, x, mean.cols) - 1;
+      continue;
     }
+    const float b = in[3 * x], g = in[3 * x + 1], r = in[3 * x + 2];
+    const float mb = mu[3 * x], mg = mu[3 * x + 1], mr = mu[3 * x + 2];
+    const float energy = mb * mb + mg * mg + mr * mr + 1.0f;
+    const float ratio = (b * mb + g * mg + r * mr) / energy;  // brightness relative to background
+    bool is_shadow = false;
+    if (o.suppress_shadows && ratio >= o.shadow_min_ratio && ratio <= o.shadow_max_ratio) {
+      const float db = b - ratio * mb, dg = g - ratio * mg, dr = r - ratio * mr;
+      const float tolerance =
+          o.shadow_chroma_sigmas * sigma[x] + o.shadow_chroma_ratio * ratio * std::sqrt(energy);
+      is_shadow = db * db + dg * dg + dr * dr <= tolerance * tolerance;
+    }
+    (is_shadow ? shadow : candidate)[x] = 255;
   }
 }
 
-void SilhouetteExtractor::classifyGray() {
-  const cv::Mat mean = background_.mean(roi_);
+void SilhouetteExtractor::classifyGray(const cv::Mat& region, float scale) {
+  // Row y is classified once rows y-2 .. y+2 are normalized: the plane fit reads them from a ring.
+  const int rows = roi_.height, cols = roi_.width;
+  cv::Point weak_min(cols, rows), weak_max(-1, -1);
+  for (int y = 0; y < rows + 2; ++y) {
+    if (y < rows) {
+      uint8_t* normalized = scratch_.normalized.ptr<uint8_t>(y);
+      silhouette_kernels::normalizeAndTestRow(region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y),
+                                              upper_.ptr<uint8_t>(y), cols, 1, scale, normalized,
+                                              scratch_.unchanged.ptr<uint8_t>(y));
+      silhouette_kernels::ratioRow(normalized, inverse_mean_.ptr<float>(y), cols,
+                                   scratch_.ratio_rows.ptr<float>(y % kRatioRing),
+                                   scratch_.ratio_squares.ptr<float>(y % kRatioRing));
+    }
+    if (y >= 2) classifyGrayRow(y - 2, weak_min, weak_max);
+  }
+  if (weak_max.x >= weak_min.x) resolveWeakShadows(cv::Rect(weak_min, weak_max + cv::Point(1, 1)));
+}
+
+void SilhouetteExtractor::classifyGrayRow(int y, cv::Point& weak_min, cv::Point& weak_max) {
   const SilhouetteOptions& o = options_;
   const float noise_scale = o.shadow_texture_sigmas * o.shadow_texture_sigmas;
-  const int last_row = mean.rows - 1, last_col = mean.cols - 1;
-  cv::Point box_min(mean.cols, mean.rows), box_max(-1, -1);  // of the weak shadows
-  for (int y = 0; y < mean.rows; ++y) {
-    const uint8_t* same = unchanged_.ptr<uint8_t>(y);
-    const float* noise_energy = ratio_noise_.ptr<float>(y);
-    const float* texture = texture_.ptr<float>(y);
-    uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
-    uint8_t* candidate = candidates_.ptr<uint8_t>(y);
-    uint8_t* shadow = shadow_.ptr<uint8_t>(y);
-    for (int x = 0; x < mean.cols; ++x) {
-      if (same[x]) {
-        x = skipUnchanged(same, x, mean.cols) - 1;
-        continue;
+  const int rows = roi_.height, cols = roi_.width;
+  const uint8_t* same = scratch_.unchanged.ptr<uint8_t>(y);
+  const float* centre = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
+  uint8_t* candidate = scratch_.candidates.ptr<uint8_t>(y);
+  uint8_t* shadow = shadow_.ptr<uint8_t>(y);
+  std::memset(candidate, 0, static_cast<std::size_t>(cols));
+  std::memset(shadow, 0, static_cast<std::size_t>(cols));
+  // A shadow scales the background by a factor that varies smoothly (a soft edge is a ramp), so
+  // over the 5x5 patch the ratio frame/background fits a plane up to the noise. A person brings
+  // their own shading, stripes and edges and ignores the background's texture: the plane leaves
+  // more than the learned noise (flat on flat stays ambiguous). Changed pixels whose own ratio is
+  // in the shadow band take the fit; the others are the person's.
+  const bool fits_row = o.suppress_shadows && y > 1 && y < rows - 2;
+  std::vector<int>& fit = scratch_.fit_columns;
+  fit.clear();
+  for (int x = 0; x < cols; ++x) {
+    if (same[x]) {
+      x = skipUnchanged(same, x, cols) - 1;
+      continue;
+    }
+    if (fits_row && x > 1 && x < cols - 2 && centre[x] >= o.shadow_min_ratio &&
+        centre[x] <= o.shadow_max_ratio)
+      fit.push_back(x);
+    else
+      candidate[x] = 255;
+  }
+  if (fit.empty()) return;
+  const float* rows_ratio[kRatioRing];
+  const float* rows_square[kRatioRing];
+  for (int dy = -2; dy <= 2; ++dy) {
+    rows_ratio[dy + 2] = scratch_.ratio_rows.ptr<float>((y + dy) % kRatioRing);
+    rows_square[dy + 2] = scratch_.ratio_squares.ptr<float>((y + dy) % kRatioRing);
+  }
+  const float* noise_energy = ratio_noise_.ptr<float>(y);
+  const float* texture = texture_.ptr<float>(y);
+  uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
+  for (std::size_t i = 0; i < fit.size();) {
+    const int x0 = fit[i];
+    float mean[4], residual[4];
+    silhouette_kernels::fitPlanes(rows_ratio, rows_square, x0, mean, residual);
+    for (; i < fit.size() && fit[i] < x0 + 4; ++i) {
+      const int x = fit[i];
+      const float ratio = mean[x - x0];
+      if (ratio < o.shadow_min_ratio || ratio > o.shadow_max_ratio ||
+          !(residual[x - x0] <= noise_scale * noise_energy[x])) {
+        candidate[x] = 255;
+      } else if (ratio * ratio * texture[x] >= o.shadow_texture_contrast) {
+        shadow[x] = 255;
+      } else {
+        weak[x] = 255;  // decided by resolveWeakShadows from what it is connected to
+        weak_min = cv::Point(std::min(weak_min.x, x), std::min(weak_min.y, y));
+        weak_max = cv::Point(std::max(weak_max.x, x), std::max(weak_max.y, y));
       }
-      bool is_shadow = false;
-      const float centre_ratio = normalized_.ptr<uint8_t>(y)[x] * inverse_mean_.ptr<float>(y)[x];
-      if (o.suppress_shadows && y > 1 && y < last_row - 1 && x > 1 && x < last_col - 1 &&
-          centre_ratio >= o.shadow_min_ratio && centre_ratio <= o.shadow_max_ratio) {
-        // A shadow scales the background by a factor that varies smoothly (a soft edge is a ramp),
-        // so over the 5x5 patch the ratio frame/background fits a plane up to the noise. A person
-        // brings their own shading, stripes and edges and ignores the background's texture: the
-        // plane leaves more than the learned noise (flat on flat stays ambiguous).
-        float sum = 0, sum_sq = 0, sum_x = 0, sum_y = 0;
-        for (int dy = -2; dy <= 2; ++dy) {
-          const uint8_t* in = normalized_.ptr<uint8_t>(y + dy) + x;
-          const float* inverse = inverse_mean_.ptr<float>(y + dy) + x;
-          float row = 0;
-          for (int dx = -2; dx <= 2; ++dx) {
-            const float q = in[dx] * inverse[dx];
-            row += q;
-            sum_sq += q * q;
-            sum_x += q * static_cast<float>(dx);
-          }
-          sum += row;
-          sum_y += row * static_cast<float>(dy);
-        }
-        // Least-squares plane over the symmetric 5x5 grid: sum(dx^2) = sum(dy^2) = 50.
-        const float ratio = sum / 25.0f;
-        const float residual = sum_sq - sum * ratio - (sum_x * sum_x + sum_y * sum_y) / 50.0f;
-        if (ratio >= o.shadow_min_ratio && ratio <= o.shadow_max_ratio &&
-            residual <= noise_scale * noise_energy[x]) {
-          if (ratio * ratio * texture[x] >= o.shadow_texture_contrast) {
-            is_shadow = true;
-          } else {
-            weak[x] = 255;  // decided below by what it is connected to
-            box_min = cv::Point(std::min(box_min.x, x), std::min(box_min.y, y));
-            box_max = cv::Point(std::max(box_max.x, x), std::max(box_max.y, y));
-            continue;
-          }
-        }
-      }
-      (is_shadow ? shadow : candidate)[x] = 255;
     }
   }
-  if (box_max.x >= box_min.x) resolveWeakShadows(cv::Rect(box_min, box_max + cv::Point(1, 1)));
 }
 
 void SilhouetteExtractor::resolveWeakShadows(cv::Rect box) {
   // A smooth dark patch over a flat background fits a scaled background as well as a shadow does.
-  // It is a shadow if it joins a shadow that showed the background's texture, else part of the
-  // person (a person's smooth clothing is ringed by edges that fail the fit). A confident pixel
-  // next to a weak one lies at most one pixel outside the weak pixels' box: the widened box holds
-  // every connection that decides.
-  box = cv::Rect(box.x - 1, box.y - 1, box.width + 2, box.height + 2) &
-        cv::Rect(cv::Point(0, 0), weak_shadow_.size());
-  cv::Mat weak = weak_shadow_(box), confident = shadow_(box), both = shadow_union_(box);
-  cv::Mat labels = shadow_labels_(box);
-  cv::bitwise_or(weak, confident, both);
-  const int count = cv::connectedComponents(both, labels, 8, CV_32S);
-  shadow_seeded_.assign(static_cast<std::size_t>(count), 0);
-  for (int y = 0; y < box.height; ++y) {
-    const uint8_t* sure = confident.ptr<uint8_t>(y);
-    const int* label = labels.ptr<int>(y);
-    for (int x = 0; x < box.width; ++x)
-      if (sure[x]) shadow_seeded_[label[x]] = 1;
+  // It is a shadow if it joins (8-connected, through weak or confident shadow pixels) a shadow that
+  // showed the background's texture, else part of the person (a person's smooth clothing is ringed
+  // by edges that fail the fit). Along any such path the last weak pixel before the first
+  // confident one touches it: a flood through weak pixels, from those touching a confident one,
+  // reaches exactly the weak pixels of such components. They all lie in the weak pixels' box, and
+  // the confident pixels they touch at most one pixel outside it.
+  const cv::Rect frame(cv::Point(0, 0), weak_shadow_.size());
+  const cv::Rect wide = cv::Rect(box.x - 1, box.y - 1, box.width + 2, box.height + 2) & frame;
+  constexpr uint8_t kReached = 1;  // a weak pixel (255) found to be a shadow
+  std::vector<int>& stack = scratch_.flood_stack;
+  stack.clear();
+  const auto touchesConfident = [&](int x, int y) {
+    for (int ny = std::max(y - 1, wide.y); ny <= std::min(y + 1, wide.br().y - 1); ++ny) {
+      const uint8_t* sure = shadow_.ptr<uint8_t>(ny);
+      for (int nx = std::max(x - 1, wide.x); nx <= std::min(x + 1, wide.br().x - 1); ++nx)
+        if (sure[nx]) return true;
+    }
+    return false;
+  };
+  for (int y = box.y; y < box.br().y; ++y) {
+    uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
+    for (int x = skipZero(weak, box.x, box.br().x); x < box.br().x;
+         x = skipZero(weak, x + 1, box.br().x)) {
+      if (!touchesConfident(x, y)) continue;
+      weak[x] = kReached;
+      stack.push_back(y * frame.width + x);
+    }
   }
-  cv::Mat candidates = candidates_(box);
-  for (int y = 0; y < box.height; ++y) {
-    uint8_t* maybe = weak.ptr<uint8_t>(y);
-    uint8_t* sure = confident.ptr<uint8_t>(y);
-    uint8_t* candidate = candidates.ptr<uint8_t>(y);
-    const int* label = labels.ptr<int>(y);
-    for (int x = 0; x < box.width; ++x) {
-      if (!maybe[x]) continue;
-      (shadow_seeded_[label[x]] ? sure : candidate)[x] = 255;
-      maybe[x] = 0;  // ready for the next frame
+  while (!stack.empty()) {
+    const int y = stack.back() / frame.width, x = stack.back() % frame.width;
+    stack.pop_back();
+    for (int ny = std::max(y - 1, box.y); ny <= std::min(y + 1, box.br().y - 1); ++ny) {
+      uint8_t* weak = weak_shadow_.ptr<uint8_t>(ny);
+      for (int nx = std::max(x - 1, box.x); nx <= std::min(x + 1, box.br().x - 1); ++nx) {
+        if (weak[nx] != 255) continue;
+        weak[nx] = kReached;
+        stack.push_back(ny * frame.width + nx);
+      }
+    }
+  }
+  for (int y = box.y; y < box.br().y; ++y) {
+    uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
+    uint8_t* sure = shadow_.ptr<uint8_t>(y);
+    uint8_t* candidate = scratch_.candidates.ptr<uint8_t>(y);
+    for (int x = skipZero(weak, box.x, box.br().x); x < box.br().x;
+         x = skipZero(weak, x + 1, box.br().x)) {
+      (weak[x] == kReached ? sure : candidate)[x] = 255;
+      weak[x] = 0;  // ready for the next frame
     }
   }
 }
 
 void SilhouetteExtractor::cleanup() {
-  const cv::Mat* source = &candidates_;
-  if (!open_kernel_.empty()) {
-    cv::morphologyEx(*source, cleaned_, cv::MORPH_OPEN, open_kernel_);
-    source = &cleaned_;
+  // Opening removes speckle, closing bridges gaps; each is an erosion and a dilation.
+  const cv::Mat* source = &scratch_.candidates;
+  if (!open_.empty() || !close_.empty()) {
+    silhouette_kernels::pack(scratch_.candidates, scratch_.packed);
+    if (!open_.empty()) {
+      open_.erode(scratch_.packed);
+      open_.dilate(scratch_.packed);
+    }
+    if (!close_.empty()) {
+      close_.dilate(scratch_.packed);
+      close_.erode(scratch_.packed);
+    }
+    silhouette_kernels::unpack(scratch_.packed, scratch_.cleaned);
+    source = &scratch_.cleaned;
   }
-  if (!close_kernel_.empty()) {
-    cv::morphologyEx(*source, cleaned_, cv::MORPH_CLOSE, close_kernel_);
-    source = &cleaned_;
-  }
-  cv::findContours(*source, contours_, hierarchy_, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
+  std::vector<std::vector<cv::Point>>& contours = scratch_.contours;
+  std::vector<cv::Vec4i>& hierarchy = scratch_.hierarchy;
+  cv::findContours(*source, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
 
   foreground_.setTo(0);
   cv::Mat out = foreground_(roi_);
@@ -305,13 +374,13 @@ void SilhouetteExtractor::cleanup() {
   const double min_blob = options_.min_blob_fraction * image_area;
   const double max_hole = options_.max_hole_fraction * image_area;
   // RETR_CCOMP: top-level contours are outer boundaries, their children the holes in them.
-  for (int i = 0; i >= 0 && i < static_cast<int>(contours_.size()); i = hierarchy_[i][0]) {
-    if (cv::contourArea(contours_[i]) < min_blob) continue;
-    cv::drawContours(out, contours_, i, 255, cv::FILLED);
-    for (int hole = hierarchy_[i][2]; hole >= 0; hole = hierarchy_[hole][0]) {
-      if (cv::contourArea(contours_[hole]) <= max_hole) continue;
-      cv::drawContours(out, contours_, hole, 0, cv::FILLED);
-      cv::drawContours(out, contours_, hole, 255, 1);  // the hole's rim is foreground
+  for (int i = 0; i >= 0 && i < static_cast<int>(contours.size()); i = hierarchy[i][0]) {
+    if (cv::contourArea(contours[i]) < min_blob) continue;
+    cv::drawContours(out, contours, i, 255, cv::FILLED);
+    for (int hole = hierarchy[i][2]; hole >= 0; hole = hierarchy[hole][0]) {
+      if (cv::contourArea(contours[hole]) <= max_hole) continue;
+      cv::drawContours(out, contours, hole, 0, cv::FILLED);
+      cv::drawContours(out, contours, hole, 255, 1);  // the hole's rim is foreground
     }
   }
 }
@@ -319,9 +388,9 @@ void SilhouetteExtractor::cleanup() {
 void SilhouetteExtractor::adapt() {
   // Only pixels whose every channel matched the background and that are not inside a silhouette:
   // a person standing still, their shadow, or a slow-moving object never leak into the model.
-  cv::subtract(unchanged_, foreground_(roi_), cleaned_);  // cleaned_ is free scratch by now
+  cv::subtract(scratch_.unchanged, foreground_(roi_), scratch_.cleaned);  // free scratch by now
   cv::Mat mean = background_.mean(roi_);
-  cv::accumulateWeighted(normalized_, mean, options_.adapt_rate, cleaned_);
+  cv::accumulateWeighted(scratch_.normalized, mean, options_.adapt_rate, scratch_.cleaned);
   rebuildBounds();
 }
 
@@ -338,15 +407,18 @@ bool SilhouetteExtractor::extract(const cv::Mat& frame) {
   error_.clear();
   const cv::Mat region = frame(roi_);
   if (options_.compensate_gain) estimateGain(region);
-  region.convertTo(normalized_, region.type(), 1.0 / gain_);
-  cv::inRange(normalized_, lower_, upper_, unchanged_);
-  // Classification only visits changed pixels: start from "nothing found".
-  candidates_.setTo(0);
-  shadow_.setTo(0);
-  if (background_.channels() == 3)
-    classifyColor();
-  else
-    classifyGray();
+  // convertTo's scale: the float nearest 1 / gain.
+  const float scale = static_cast<float>(1.0 / gain_);
+  if (background_.channels() == 3) {
+    for (int y = 0; y < roi_.height; ++y) {
+      silhouette_kernels::normalizeAndTestRow(
+          region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y), roi_.width, 3,
+          scale, scratch_.normalized.ptr<uint8_t>(y), scratch_.unchanged.ptr<uint8_t>(y));
+      classifyColorRow(y);
+    }
+  } else {
+    classifyGray(region, scale);
+  }
   cleanup();
   if (options_.adaptive && ++frame_count_ % options_.adapt_interval == 0) adapt();
   if (options_.build_silhouette_mask) silhouette_ = SilhouetteMask(foreground_);

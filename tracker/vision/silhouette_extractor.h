@@ -1,9 +1,9 @@
 // Per-camera silhouette extraction against a learned background (paper §8.1: background
 // subtraction then a threshold), with global-gain compensation, shadow suppression, cleanup and an
 // optional slow adaptation of the background. One extractor per camera; not thread-safe, called
-// by that camera's pipeline thread only. No allocation per frame after the first one (except
-// inside OpenCV's contour finder, gray's connected-component labelling and the SilhouetteMask
-// constructor).
+// by that camera's pipeline thread only, on which it does all its work: it never uses OpenCV's
+// thread pool, so cv::setNumThreads is the daemon's choice alone. No allocation per frame after the
+// first ones (except inside OpenCV's contour finder and the SilhouetteMask constructor).
 #pragma once
 
 #include <string>
@@ -13,6 +13,7 @@
 
 #include "tracker/likelihood/silhouette_mask.h"
 #include "tracker/vision/background_model.h"
+#include "tracker/vision/silhouette_kernels.h"
 
 namespace mocap {
 
@@ -35,8 +36,9 @@ struct SilhouetteOptions {
   float shadow_texture_sigmas = 2.5f;
   float shadow_texture_contrast = 8.0f;  // set on seeds 101-105 with texture_sigmas 2.5
 
-  // Cleanup: opening removes speckle, closing bridges thin gaps; then connected regions smaller than
-  // min_blob_fraction of the image are dropped and holes smaller than max_hole_fraction filled.
+  // Cleanup: opening removes speckle, closing bridges thin gaps (radii 0-63); then connected
+  // regions smaller than min_blob_fraction of the image are dropped and holes smaller than
+  // max_hole_fraction filled.
   int open_radius = 1;
   int close_radius = 2;
   double min_blob_fraction = 0.0005;
@@ -83,10 +85,26 @@ class SilhouetteExtractor {
   void setBackground(BackgroundModel background);
 
  private:
+  // Per-frame working buffers, sized by setBackground and reused by every frame.
+  struct Scratch {
+    cv::Mat normalized;    // the frame's region of interest divided by the gain
+    cv::Mat unchanged;     // 255 where every channel is in range
+    cv::Mat candidates;    // changed and not shadow, before cleanup
+    silhouette_kernels::PackedMask packed;  // the candidates through the morphology
+    cv::Mat cleaned;
+    cv::Mat ratio_rows, ratio_squares;  // gray: frame / background of the last 5 rows, squared
+    std::vector<int> fit_columns;  // gray: one row's pixels that take the plane fit
+    std::vector<int> flood_stack;
+    std::vector<std::vector<cv::Point>> contours;
+    std::vector<cv::Vec4i> hierarchy;
+    std::vector<float> gain_samples;
+  };
+
   void rebuildBounds();
   void estimateGain(const cv::Mat& frame);
-  void classifyColor();
-  void classifyGray();
+  void classifyColorRow(int y);
+  void classifyGray(const cv::Mat& region, float scale);
+  void classifyGrayRow(int y, cv::Point& weak_min, cv::Point& weak_max);
   void resolveWeakShadows(cv::Rect box);
   void cleanup();
   void adapt();
@@ -99,20 +117,12 @@ class SilhouetteExtractor {
   cv::Mat inverse_mean_;  // gray: 1 / (mean + 1)
   cv::Mat ratio_noise_;   // gray: sum over each 5x5 patch of (pixel_sigma / (mean + 1))^2
   cv::Mat texture_;       // gray: the background's texture energy over each 5x5 patch / noise
-  cv::Mat weak_shadow_;   // gray: fits a shadow over a flat patch; 0 between frames
-  cv::Mat shadow_union_, shadow_labels_;  // gray: scratch of resolveWeakShadows
-  std::vector<uint8_t> shadow_seeded_;    // per label: touches a confident shadow
+  cv::Mat weak_shadow_;   // gray: fits a shadow over a flat patch (255); 0 between frames
   cv::Mat lower_, upper_; // CV_8UC(c): the unchanged range of each channel
   cv::Mat bound_scratch_;
-  cv::Mat normalized_;    // the frame's region of interest divided by the gain
-  cv::Mat unchanged_;     // 255 where every channel is in range
-  cv::Mat candidates_;    // changed and not shadow, before cleanup
-  cv::Mat cleaned_;
   cv::Mat foreground_, shadow_;
-  cv::Mat open_kernel_, close_kernel_;
-  std::vector<std::vector<cv::Point>> contours_;
-  std::vector<cv::Vec4i> hierarchy_;
-  std::vector<float> gain_samples_;
+  silhouette_kernels::RunMorphology open_, close_;
+  Scratch scratch_;
   SilhouetteMask silhouette_;
   double gain_ = 1.0;
   long frame_count_ = 0;

@@ -1,0 +1,285 @@
+// Row kernels of the silhouette extractor: universal intrinsics for the per-byte work, plain loops
+// the compiler vectorizes for the morphology. Rounding is round-half-even as in OpenCV (cvRound,
+// v_round), and float expressions keep OpenCV's and the plain loops' order of operations.
+#include "tracker/vision/silhouette_kernels.h"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <stdexcept>
+
+#include <opencv2/core.hpp>
+#include <opencv2/core/hal/intrin.hpp>
+
+namespace mocap::silhouette_kernels {
+
+namespace {
+
+using cv::v_float32x4;
+using cv::v_int32x4;
+using cv::v_uint16x8;
+using cv::v_uint32x4;
+using cv::v_uint8x16;
+
+// Each byte times `scale`, rounded and saturated: convertTo's v_fma(x, scale, 0) is the product.
+// The signed packs are exact while scale < kFastScaleLimit (products below 2^15).
+constexpr float kFastScaleLimit = 128.0f;
+v_uint8x16 scaleBytes(const v_uint8x16& bytes, const v_float32x4& scale) {
+  v_uint16x8 low, high;
+  cv::v_expand(bytes, low, high);
+  v_uint32x4 q0, q1, q2, q3;
+  cv::v_expand(low, q0, q1);
+  cv::v_expand(high, q2, q3);
+  auto scaled = [&](const v_uint32x4& v) {
+    return cv::v_round(cv::v_cvt_f32(cv::v_reinterpret_as_s32(v)) * scale);
+  };
+  return cv::v_pack_u(cv::v_pack(scaled(q0), scaled(q1)), cv::v_pack(scaled(q2), scaled(q3)));
+}
+
+// Nonzero bytes lie outside [lower, upper] (saturating differences).
+v_uint8x16 outside(const v_uint8x16& value, const uint8_t* lower, const uint8_t* upper) {
+  return (cv::v_load(lower) - value) | (value - cv::v_load(upper));
+}
+
+// One pixel the vectors did not cover.
+void normalizeAndTestPixel(const uint8_t* in, const uint8_t* lower, const uint8_t* upper,
+                           int channels, float scale, uint8_t* normalized, uint8_t* unchanged) {
+  bool inside = true;
+  for (int c = 0; c < channels; ++c) {
+    normalized[c] = cv::saturate_cast<uint8_t>(in[c] * scale);
+    inside = inside && normalized[c] >= lower[c] && normalized[c] <= upper[c];
+  }
+  *unchanged = inside ? 255 : 0;
+}
+
+}  // namespace
+
+void normalizeAndTestRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int cols,
+                         int channels, float scale, uint8_t* normalized, uint8_t* unchanged) {
+  const v_float32x4 vscale = cv::v_setall_f32(scale);
+  const v_uint8x16 zero = cv::v_setzero_u8();
+  int x = 0;
+  if (!(scale < kFastScaleLimit)) {
+    // A gain near zero: every pixel takes the scalar path below.
+  } else if (channels == 1) {
+    for (; x + 16 <= cols; x += 16) {
+      const v_uint8x16 value = scaleBytes(cv::v_load(in + x), vscale);
+      cv::v_store(normalized + x, value);
+      cv::v_store(unchanged + x, outside(value, lower + x, upper + x) == zero);
+    }
+  } else {
+    // Most of a frame is background: 16 pixels whose 48 bytes are all in range at once.
+    const v_uint8x16 all = cv::v_setall_u8(255);
+    for (; x + 16 <= cols; x += 16) {
+      v_uint8x16 any_outside = zero;
+      for (int part = 0; part < 3; ++part) {
+        const int offset = 3 * x + 16 * part;
+        const v_uint8x16 value = scaleBytes(cv::v_load(in + offset), vscale);
+        cv::v_store(normalized + offset, value);
+        any_outside = any_outside | outside(value, lower + offset, upper + offset);
+      }
+      if (!cv::v_check_any(any_outside != zero)) {
+        cv::v_store(unchanged + x, all);
+        continue;
+      }
+      for (int pixel = x; pixel < x + 16; ++pixel) {
+        const uint8_t* value = normalized + 3 * pixel;
+        const uint8_t* low = lower + 3 * pixel;
+        const uint8_t* high = upper + 3 * pixel;
+        const bool inside = value[0] >= low[0] && value[0] <= high[0] && value[1] >= low[1] &&
+                            value[1] <= high[1] && value[2] >= low[2] && value[2] <= high[2];
+        unchanged[pixel] = inside ? 255 : 0;
+      }
+    }
+  }
+  for (; x < cols; ++x)
+    normalizeAndTestPixel(in + channels * x, lower + channels * x, upper + channels * x, channels,
+                          scale, normalized + channels * x, unchanged + x);
+}
+
+void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower, uint8_t* upper) {
+  int i = 0;
+  for (; i + 16 <= count; i += 16) {
+    v_int32x4 below[4], above[4];
+    for (int part = 0; part < 4; ++part) {
+      const v_float32x4 mu = cv::v_load(mean + i + 4 * part);
+      const v_float32x4 width = cv::v_load(margin + i + 4 * part);
+      below[part] = cv::v_round(mu - width);
+      above[part] = cv::v_round(mu + width);
+    }
+    cv::v_store(lower + i,
+                cv::v_pack(cv::v_pack_u(below[0], below[1]), cv::v_pack_u(below[2], below[3])));
+    cv::v_store(upper + i,
+                cv::v_pack(cv::v_pack_u(above[0], above[1]), cv::v_pack_u(above[2], above[3])));
+  }
+  for (; i < count; ++i) {
+    lower[i] = cv::saturate_cast<uint8_t>(mean[i] - margin[i]);
+    upper[i] = cv::saturate_cast<uint8_t>(mean[i] + margin[i]);
+  }
+}
+
+void ratioRow(const uint8_t* normalized, const float* inverse_mean, int cols, float* ratio,
+              float* ratio_squared) {
+  int x = 0;
+  for (; x + 8 <= cols; x += 8) {
+    v_uint32x4 low, high;
+    cv::v_expand(cv::v_load_expand(normalized + x), low, high);
+    const v_float32x4 q0 =
+        cv::v_cvt_f32(cv::v_reinterpret_as_s32(low)) * cv::v_load(inverse_mean + x);
+    const v_float32x4 q1 =
+        cv::v_cvt_f32(cv::v_reinterpret_as_s32(high)) * cv::v_load(inverse_mean + x + 4);
+    cv::v_store(ratio + x, q0);
+    cv::v_store(ratio + x + 4, q1);
+    cv::v_store(ratio_squared + x, q0 * q0);
+    cv::v_store(ratio_squared + x + 4, q1 * q1);
+  }
+  for (; x < cols; ++x) {
+    ratio[x] = normalized[x] * inverse_mean[x];
+    ratio_squared[x] = ratio[x] * ratio[x];
+  }
+}
+
+void fitPlanes(const float* const rows[5], const float* const squares[5], int x0, float mean[4],
+               float residual[4]) {
+  const v_float32x4 zero = cv::v_setzero_f32();
+  v_float32x4 sum = zero, sum_sq = zero, sum_x = zero, sum_y = zero;
+  for (int dy = -2; dy <= 2; ++dy) {
+    const float* ratio = rows[dy + 2] + x0;
+    const float* square = squares[dy + 2] + x0;
+    v_float32x4 row = zero;
+    for (int dx = -2; dx <= 2; ++dx) {
+      const v_float32x4 q = cv::v_load(ratio + dx);
+      row = row + q;
+      sum_sq = sum_sq + cv::v_load(square + dx);
+      sum_x = sum_x + q * cv::v_setall_f32(static_cast<float>(dx));
+    }
+    sum = sum + row;
+    sum_y = sum_y + row * cv::v_setall_f32(static_cast<float>(dy));
+  }
+  // Least-squares plane over the symmetric 5x5 grid: sum(dx^2) = sum(dy^2) = 50.
+  const v_float32x4 patch_mean = sum / cv::v_setall_f32(25.0f);
+  cv::v_store(mean, patch_mean);
+  cv::v_store(residual, sum_sq - sum * patch_mean -
+                            (sum_x * sum_x + sum_y * sum_y) / cv::v_setall_f32(50.0f));
+}
+
+void pack(const cv::Mat& src, PackedMask& dst) {
+  CV_Assert(src.type() == CV_8UC1);
+  dst.rows = src.rows;
+  dst.cols = src.cols;
+  dst.words = (src.cols + 63) / 64;
+  dst.bits.assign(static_cast<std::size_t>(dst.rows) * dst.words, 0);
+  const v_uint8x16 zero = cv::v_setzero_u8();
+  for (int y = 0; y < src.rows; ++y) {
+    const uint8_t* in = src.ptr<uint8_t>(y);
+    uint64_t* out = dst.row(y);
+    int x = 0;
+    for (; x + 16 <= src.cols; x += 16) {
+      const auto set = static_cast<uint64_t>(cv::v_signmask(cv::v_load(in + x) != zero));
+      out[x / 64] |= set << (x % 64);
+    }
+    for (; x < src.cols; ++x)
+      if (in[x]) out[x / 64] |= uint64_t{1} << (x % 64);
+  }
+}
+
+void unpack(const PackedMask& src, cv::Mat& dst) {
+  dst.create(src.rows, src.cols, CV_8UC1);
+  // Eight pixels at a time: the 8 bytes of each 8-bit pattern.
+  static const auto patterns = [] {
+    std::array<uint64_t, 256> table{};
+    for (int bits = 0; bits < 256; ++bits)
+      for (int i = 0; i < 8; ++i)
+        if (bits & (1 << i)) table[static_cast<std::size_t>(bits)] |= uint64_t{0xff} << (8 * i);
+    return table;
+  }();
+  for (int y = 0; y < src.rows; ++y) {
+    const uint64_t* in = src.row(y);
+    uint8_t* out = dst.ptr<uint8_t>(y);
+    int x = 0;
+    for (; x + 8 <= src.cols; x += 8) {
+      const uint64_t bytes = patterns[(in[x / 64] >> (x % 64)) & 0xff];
+      std::memcpy(out + x, &bytes, sizeof bytes);
+    }
+    for (; x < src.cols; ++x) out[x] = (in[x / 64] >> (x % 64)) & 1 ? 255 : 0;
+  }
+}
+
+RunMorphology::RunMorphology(const cv::Mat& kernel) {
+  if (kernel.type() != CV_8UC1 || kernel.rows != kernel.cols || kernel.rows % 2 == 0 ||
+      kernel.rows >= 128)
+    throw std::invalid_argument("morphology kernel: expected an odd square 8-bit mask under 128");
+  const int radius = kernel.rows / 2;
+  for (int y = 0; y < kernel.rows; ++y) {
+    const uint8_t* row = kernel.ptr<uint8_t>(y);
+    const int half = radius - static_cast<int>(std::find(row, row + kernel.cols, 1) - row);
+    if (half < 0) throw std::invalid_argument("morphology kernel: a row is empty");
+    for (int x = 0; x < kernel.cols; ++x)
+      if ((row[x] != 0) != (x >= radius - half && x <= radius + half))
+        throw std::invalid_argument("morphology kernel: a row is not one centred run");
+    half_widths_.push_back(half);
+    auto found = std::find(distinct_widths_.begin(), distinct_widths_.end(), half);
+    if (half > 0 && found == distinct_widths_.end())
+      found = distinct_widths_.insert(distinct_widths_.end(), half);
+    width_index_.push_back(half > 0 ? static_cast<int>(found - distinct_widths_.begin()) : -1);
+  }
+  windows_.resize(distinct_widths_.size());
+}
+
+void RunMorphology::horizontalWindows(const PackedMask& mask, bool erode) {
+  const int words = mask.words;
+  // Outside the image: the identity of the operation, as OpenCV's default morphology border.
+  const uint64_t border = erode ? ~uint64_t{0} : 0;
+  const int tail = mask.cols % 64;
+  const uint64_t outside_tail = tail == 0 ? 0 : ~((uint64_t{1} << tail) - 1);
+  line_.assign(static_cast<std::size_t>(words + 2), border);
+  for (auto& window : windows_) window.resize(mask.bits.size());
+  for (int y = 0; y < mask.rows; ++y) {
+    std::copy(mask.row(y), mask.row(y) + words, line_.begin() + 1);
+    line_[static_cast<std::size_t>(words)] |= outside_tail & border;
+    for (std::size_t i = 0; i < distinct_widths_.size(); ++i) {
+      const int half = distinct_widths_[i];
+      uint64_t* out = windows_[i].data() + static_cast<std::size_t>(y) * words;
+      for (int w = 0; w < words; ++w) {
+        const uint64_t* at = line_.data() + w + 1;  // at[-1] and at[1] are the neighbour words
+        uint64_t combined = at[0];
+        for (int shift = 1; shift <= half; ++shift) {
+          // Pixel x + shift and x - shift, each reaching into the neighbour word (shift < 64).
+          const uint64_t right = (at[0] >> shift) | (at[1] << (64 - shift));
+          const uint64_t left = (at[0] << shift) | (at[-1] >> (64 - shift));
+          combined = erode ? (combined & right & left) : (combined | right | left);
+        }
+        out[w] = combined;
+      }
+    }
+  }
+}
+
+void RunMorphology::apply(PackedMask& mask, bool erode) {
+  CV_Assert(!empty());
+  horizontalWindows(mask, erode);
+  const int words = mask.words, radius = static_cast<int>(half_widths_.size() / 2);
+  const int tail = mask.cols % 64;
+  const uint64_t inside_tail = tail == 0 ? ~uint64_t{0} : (uint64_t{1} << tail) - 1;
+  result_.resize(mask.bits.size());
+  for (int y = 0; y < mask.rows; ++y) {
+    uint64_t* out = result_.data() + static_cast<std::size_t>(y) * words;
+    std::fill(out, out + words, erode ? ~uint64_t{0} : 0);
+    // Rows outside the image are the border: they leave the result as it is.
+    for (int k = std::max(0, radius - y); k <= std::min(2 * radius, mask.rows - 1 - y + radius);
+         ++k) {
+      const int sy = y + k - radius, index = width_index_[static_cast<std::size_t>(k)];
+      const uint64_t* in = index < 0 ? mask.row(sy)
+                                     : windows_[static_cast<std::size_t>(index)].data() +
+                                           static_cast<std::size_t>(sy) * words;
+      if (erode)
+        for (int w = 0; w < words; ++w) out[w] &= in[w];
+      else
+        for (int w = 0; w < words; ++w) out[w] |= in[w];
+    }
+    out[words - 1] &= inside_tail;
+  }
+  mask.bits.swap(result_);
+}
+
+}  // namespace mocap::silhouette_kernels

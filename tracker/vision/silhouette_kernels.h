@@ -1,0 +1,74 @@
+// Row kernels of the silhouette extractor, written with OpenCV's 128-bit universal intrinsics
+// (SSE2 on any x86-64, NEON on ARM) so the shipped build needs no CPU flags. Each kernel gives
+// bit for bit the values of the OpenCV calls it replaces (named at each one), and none of them
+// uses OpenCV's parallel_for_: the extractor runs on its caller's thread only.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+namespace mocap::silhouette_kernels {
+
+// One row of `cols` pixels of `channels` (1 or 3) interleaved bytes:
+// normalized = saturate(round_half_even(in * scale)) per byte (cv::Mat::convertTo's float path),
+// unchanged[x] = 255 if every channel of normalized lies in [lower, upper], else 0 (cv::inRange).
+void normalizeAndTestRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int cols,
+                         int channels, float scale, uint8_t* normalized, uint8_t* unchanged);
+
+// lower = saturate(round_half_even(mean - margin)), upper the same of mean + margin, over `count`
+// values (cv::subtract or cv::add, then convertTo CV_8U).
+void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower, uint8_t* upper);
+
+// ratio = normalized * inverse_mean (the gray shadow test's frame / background) and its square.
+void ratioRow(const uint8_t* normalized, const float* inverse_mean, int cols, float* ratio,
+              float* ratio_squared);
+
+// The least-squares plane of the ratio over the 5x5 patches centred on pixels x0 .. x0+3 of the
+// middle row: `rows` and `squares` point at the five rows' ratios and squared ratios, readable from
+// x0 - 2 to x0 + 5. Per pixel, `mean` is the patch's mean ratio and `residual` what the plane
+// leaves; the summation order is that of a plain loop over dy then dx, lane by lane.
+void fitPlanes(const float* const rows[5], const float* const squares[5], int x0, float mean[4],
+               float residual[4]);
+
+// A binary image, one bit per pixel (bit x % 64 of word x / 64 of its row), for the morphology.
+struct PackedMask {
+  int rows = 0, cols = 0, words = 0;  // words per row
+  std::vector<uint64_t> bits;
+  uint64_t* row(int y) { return bits.data() + static_cast<std::size_t>(y) * words; }
+  const uint64_t* row(int y) const { return bits.data() + static_cast<std::size_t>(y) * words; }
+};
+
+// Nonzero bytes of `src` (8-bit, one channel) become set bits; `dst` is resized to match.
+void pack(const cv::Mat& src, PackedMask& dst);
+// Set bits become 255, the others 0, in `dst` of the mask's size (allocated if needed).
+void unpack(const PackedMask& src, cv::Mat& dst);
+
+// Erosion and dilation of a packed mask by a structuring element whose rows are centred runs
+// shorter than 128 pixels (a disk from cv::getStructuringElement(MORPH_ELLIPSE)), equal to
+// cv::erode and cv::dilate with their default border (pixels outside the image never change the
+// result). 64 pixels per operation; buffers are kept between calls.
+class RunMorphology {
+ public:
+  RunMorphology() = default;
+  explicit RunMorphology(const cv::Mat& kernel);
+  bool empty() const { return half_widths_.empty(); }
+
+  void erode(PackedMask& mask) { apply(mask, true); }
+  void dilate(PackedMask& mask) { apply(mask, false); }
+
+ private:
+  void apply(PackedMask& mask, bool erode);
+  void horizontalWindows(const PackedMask& mask, bool erode);
+
+  std::vector<int> half_widths_;      // per kernel row: the run is [-h, h] around the centre column
+  std::vector<int> distinct_widths_;  // the nonzero half widths
+  std::vector<int> width_index_;  // per kernel row: its window in windows_, -1 for the row itself
+  std::vector<std::vector<uint64_t>>
+      windows_;                 // per distinct width: each row's AND or OR over the run
+  std::vector<uint64_t> line_;  // one row with a border word on both sides
+  std::vector<uint64_t> result_;
+};
+
+}  // namespace mocap::silhouette_kernels
