@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdint>
+#include <cstring>
 #include <functional>
 #include <map>
 #include <mutex>
@@ -278,10 +280,20 @@ class Receiver {
   static int onMessage(const char* path, const char* types, lo_arg** argv, int argc, lo_message,
                        void* self) {
     Message message{path, "", {}};
+    // liblo's arguments are 4-byte aligned and lo_arg (a union with doubles) wants 8: copy the
+    // values out rather than read them through the union.
     for (int i = 0; i < argc; ++i) {
-      if (types[i] == LO_STRING) message.name = &argv[i]->s;
-      if (types[i] == LO_FLOAT) message.values.push_back(argv[i]->f);
-      if (types[i] == LO_INT32) message.values.push_back(argv[i]->i);
+      if (types[i] == LO_STRING) message.name = reinterpret_cast<const char*>(argv[i]);
+      if (types[i] == LO_FLOAT) {
+        float value;
+        std::memcpy(&value, argv[i], sizeof value);
+        message.values.push_back(value);
+      }
+      if (types[i] == LO_INT32) {
+        int32_t value;
+        std::memcpy(&value, argv[i], sizeof value);
+        message.values.push_back(value);
+      }
     }
     static_cast<Receiver*>(self)->current_.push_back(std::move(message));
     return 0;
