@@ -45,14 +45,21 @@ TestSceneOptions smallScene(bool color) {
   return options;
 }
 
-Score run(const TestSceneOptions& scene_options, const SilhouetteOptions& options, int frames) {
-  SilhouetteTestScene scene(scene_options);
-  TestSceneFrame frame;
+// The empty scene learned from 20 frames. Each learner.model() has buffers of its own: extractors
+// adapt their model in place, so two extractors must not be given one model.
+BackgroundLearner learnEmptyScene(SilhouetteTestScene& scene, TestSceneFrame& frame) {
   BackgroundLearner learner;
   for (int i = 0; i < 20; ++i) {
     scene.render(0, false, frame);
     learner.add(frame.image);
   }
+  return learner;
+}
+
+Score run(const TestSceneOptions& scene_options, const SilhouetteOptions& options, int frames) {
+  SilhouetteTestScene scene(scene_options);
+  TestSceneFrame frame;
+  const BackgroundLearner learner = learnEmptyScene(scene, frame);
   SilhouetteExtractor extractor(learner.model(), options);
   const double initial_balance = leftOverRight(extractor.background().mean);
   Score score;
@@ -365,11 +372,7 @@ int framesThatDiffer(const TestSceneOptions& scene_options, const SilhouetteOpti
                      int frames) {
   SilhouetteTestScene scene(scene_options);
   TestSceneFrame frame;
-  BackgroundLearner learner;
-  for (int i = 0; i < 20; ++i) {
-    scene.render(0, false, frame);
-    learner.add(frame.image);
-  }
+  const BackgroundLearner learner = learnEmptyScene(scene, frame);
   SilhouetteExtractor fast(learner.model(), options);
   ReferenceExtractor reference(learner.model(), options);
   int differ = 0, foreground = 0, shadow = 0;
