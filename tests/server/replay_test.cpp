@@ -199,7 +199,9 @@ TEST_F(EndToEndTest, ReplayMeasuresTheErrorOnTheSubjectsBody) {
   ASSERT_FALSE(poses.empty());
   // The mean distance of a pose's joints from a truth's placed on `body`, in millimetres; the
   // reported error must be that of some frame's truth on the subject's body, and of none on the
-  // tracked body (whose legs and arms are longer).
+  // tracked body (whose legs and arms are longer). Both to the same precision: over dozens of
+  // truths, one on the tracked body can come within a millimetre of the reported error by chance,
+  // never within a micrometre; one used by mistake would match to rounding.
   const auto nearestError = [&](const BodyModel& body, const Pose& pose) {
     KinematicsData kinematics(body);
     double nearest = INFINITY;
@@ -215,7 +217,7 @@ TEST_F(EndToEndTest, ReplayMeasuresTheErrorOnTheSubjectsBody) {
   for (const Pose& pose : poses) {
     ASSERT_TRUE(pose.reference_error_mm) << "frame " << pose.frame_sequence;
     EXPECT_LT(nearestError(*subject, pose), 1e-6) << "frame " << pose.frame_sequence;
-    EXPECT_GT(nearestError(*tracked, pose), 1.0) << "frame " << pose.frame_sequence;
+    EXPECT_GT(nearestError(*tracked, pose), 1e-3) << "frame " << pose.frame_sequence;
   }
   fs::remove_all(root);
 }
