@@ -18,7 +18,9 @@ int64_t steadyNowNs() {
 // How long after a browser's last image request frames are still kept for it.
 constexpr auto kWantedFor = std::chrono::seconds(2);
 constexpr int kJpegQuality = 80;
-constexpr double kTintWeight = 0.45;
+// At this weight every tinted pixel is at least 51 greener than it is red or blue, whatever its
+// colour (pure red becomes 102,153,0), so the silhouette stays distinguishable from the subject.
+constexpr double kTintWeight = 0.6;
 
 cv::Mat tinted(const cv::Mat& image, const SilhouetteMask* mask) {
   cv::Mat bgr;

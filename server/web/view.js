@@ -27,15 +27,19 @@ async function api(url, options = {}) {
   return response;
 }
 
+// Draws the camera's newest image and the outline over it; `view.shows` says what the canvas
+// shows now (the browser test waits for both).
 function drawCamera(view) {
   const ctx = view.canvas.getContext('2d');
-  if (view.image.complete && view.image.naturalWidth > 0) {
+  view.shows = { image: view.image !== null, outline: false };
+  if (view.shows.image) {
     ctx.drawImage(view.image, 0, 0, view.canvas.width, view.canvas.height);
   } else {
     ctx.fillStyle = '#000';
     ctx.fillRect(0, 0, view.canvas.width, view.canvas.height);
   }
   if (!latestPose || !latestPose.projected[view.index]) return;
+  view.shows.outline = true;
   const pixels = latestPose.projected[view.index];
   ctx.strokeStyle = OUTLINE;
   ctx.fillStyle = OUTLINE;
@@ -55,11 +59,17 @@ function drawCamera(view) {
   }
 }
 
-// Each camera's image is fetched again once the last one arrived: a slow browser asks less.
+// Each camera's image is fetched again once the last one arrived: a slow browser asks less. The
+// canvas keeps showing the last image while the next one loads.
 function refreshImage(view) {
-  view.image.onload = () => { drawCamera(view); setTimeout(() => refreshImage(view), 200); };
-  view.image.onerror = () => setTimeout(() => refreshImage(view), 500);
-  view.image.src = withToken('/api/camera/' + view.index + '.jpg?t=' + Date.now());
+  const next = new Image();
+  next.onload = () => {
+    view.image = next;
+    drawCamera(view);
+    setTimeout(() => refreshImage(view), 200);
+  };
+  next.onerror = () => setTimeout(() => refreshImage(view), 500);
+  next.src = withToken('/api/camera/' + view.index + '.jpg?t=' + Date.now());
 }
 
 function makeCameraViews() {
@@ -76,7 +86,7 @@ function makeCameraViews() {
     div.appendChild(canvas);
     div.appendChild(label);
     box.appendChild(div);
-    const view = { index: camera.index, canvas: canvas, image: new Image() };
+    const view = { index: camera.index, canvas: canvas, image: null };
     cameraViews.push(view);
     refreshImage(view);
   }
@@ -116,8 +126,19 @@ function makeWorld() {
                                   new THREE.PointsMaterial({ color: 0xffffff, size: 0.03 }));
   world.scene.add(world.skeleton);
   world.scene.add(world.joints);
-  const render = () => { world.renderer.render(world.scene, world.camera); requestAnimationFrame(render); };
-  render();
+  world.controls.addEventListener('change', renderWorld);
+  renderWorld();
+}
+
+// Renders once at the next frame, when the pose or the viewpoint changed: an idle view costs
+// nothing (software WebGL renders at a CPU's cost).
+function renderWorld() {
+  if (world.renderPending) return;
+  world.renderPending = true;
+  requestAnimationFrame(() => {
+    world.renderPending = false;
+    world.renderer.render(world.scene, world.camera);
+  });
 }
 
 function showPose(pose) {
@@ -132,6 +153,7 @@ function showPose(pose) {
   world.joints.geometry.dispose();
   world.joints.geometry = new THREE.BufferGeometry().setFromPoints(
       pose.points.map(p => new THREE.Vector3(...p)));
+  renderWorld();
 }
 
 function streamPoses() {
