@@ -54,8 +54,11 @@ void FakeCameraBase::convertForOutput(cv::Mat& image) const {
 }
 
 FakeSceneCamera::FakeSceneCamera(std::shared_ptr<FakeScene> scene, int rig_camera, const CameraConfig& config,
-                                 CameraInfo info)
-    : FakeCameraBase(std::move(info), config), scene_(std::move(scene)), rig_camera_(rig_camera) {}
+                                 CameraInfo info, FakeFaults faults)
+    : FakeCameraBase(std::move(info), config),
+      scene_(std::move(scene)),
+      rig_camera_(rig_camera),
+      faults_(std::move(faults)) {}
 
 FakeSceneCamera::~FakeSceneCamera() { stop(); }
 
@@ -87,12 +90,13 @@ void FakeSceneCamera::run() {
         sequence = now_sequence - 1;
       }
     }
-    const bool gone = scene.inOutage(options.faults.disconnect, rig_camera_, sequence);
+    const bool gone = scene.inOutage(faults_.disconnect, rig_camera_, sequence);
     if (gone != disconnected) {
       disconnected = gone;
       report(gone ? info_.id + ": camera disconnected (simulated)" : info_.id + ": camera reconnected (simulated)");
     }
-    if (gone || scene.inOutage(options.faults.stall, rig_camera_, sequence) || scene.dropped(rig_camera_, sequence)) {
+    if (gone || scene.inOutage(faults_.stall, rig_camera_, sequence) ||
+        scene.dropped(faults_, rig_camera_, sequence)) {
       ++lost;
       ++lost_;
       ++sequence;

@@ -62,13 +62,16 @@ class FakeCameraBase : public Camera {
 // behind real time leave a sequence gap that the next frame's dropped_before counts.
 class FakeSceneCamera final : public FakeCameraBase {
  public:
-  FakeSceneCamera(std::shared_ptr<FakeScene> scene, int rig_camera, const CameraConfig& config, CameraInfo info);
+  // `faults`: this camera's (the scene's unless its device string gives some).
+  FakeSceneCamera(std::shared_ptr<FakeScene> scene, int rig_camera, const CameraConfig& config, CameraInfo info,
+                  FakeFaults faults);
   ~FakeSceneCamera() override;
 
  private:
   void run() override;
   std::shared_ptr<FakeScene> scene_;
   const int rig_camera_;
+  const FakeFaults faults_;
 };
 
 // How a recorded session plays.

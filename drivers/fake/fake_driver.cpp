@@ -3,6 +3,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <sstream>
 
 namespace mocap {
 namespace {
@@ -11,6 +12,56 @@ bool parseIndex(const std::string& text, int& value) {
   const char* end = text.data() + text.size();
   const auto [ptr, error] = std::from_chars(text.data(), end, value);
   return !text.empty() && error == std::errc() && ptr == end && value >= 0;
+}
+
+bool parseNonNegative(const std::string& text, double& seconds) {
+  const char* end = text.data() + text.size();
+  const auto [ptr, error] = std::from_chars(text.data(), end, seconds);
+  return !text.empty() && error == std::errc() && ptr == end && std::isfinite(seconds) && seconds >= 0;
+}
+
+// "<seconds>@<start seconds>[/<every seconds>]" as an outage of `camera`.
+Expected<FakeOutage> parseOutage(const std::string& text, int camera, double fps) {
+  const std::size_t at = text.find('@');
+  const std::size_t slash = text.find('/');
+  double duration = 0;
+  double start = 0;
+  double every = 0;
+  if (at == std::string::npos || (slash != std::string::npos && slash < at) ||
+      !parseNonNegative(text.substr(0, at), duration) ||
+      !parseNonNegative(text.substr(at + 1, slash == std::string::npos ? std::string::npos : slash - at - 1), start) ||
+      (slash != std::string::npos && (!parseNonNegative(text.substr(slash + 1), every) || every <= duration))) {
+    return Status::Error("'" + text + "' is not <seconds>@<start seconds>[/<every seconds, more than the outage>]");
+  }
+  FakeOutage outage;
+  outage.camera = camera;
+  outage.after_frames = static_cast<uint64_t>(std::llround(start * fps));
+  outage.duration = std::chrono::nanoseconds(std::llround(duration * 1e9));
+  outage.every = std::chrono::nanoseconds(std::llround(every * 1e9));
+  return outage;
+}
+
+// The faults a scene device's query ("drop_rate=R&stall=...&disconnect=...") gives camera
+// `camera`, over the scene's own.
+Expected<FakeFaults> parseFaults(const std::string& query, const FakeFaults& scene_faults, int camera, double fps) {
+  FakeFaults faults = scene_faults;
+  std::istringstream items(query);
+  for (std::string item; std::getline(items, item, '&');) {
+    const std::size_t equals = item.find('=');
+    const std::string key = item.substr(0, equals);
+    const std::string value = equals == std::string::npos ? "" : item.substr(equals + 1);
+    if (key == "drop_rate") {
+      if (!parseNonNegative(value, faults.drop_rate) || faults.drop_rate >= 1)
+        return Status::Error("drop_rate '" + value + "' is not a chance in [0, 1)");
+    } else if (key == "stall" || key == "disconnect") {
+      Expected<FakeOutage> outage = parseOutage(value, camera, fps);
+      if (!outage.ok()) return Status::Error(key + ": " + outage.error());
+      (key == "stall" ? faults.stall : faults.disconnect) = outage.value();
+    } else {
+      return Status::Error("unknown fault '" + key + "'; expected drop_rate, stall or disconnect");
+    }
+  }
+  return faults;
 }
 
 std::string sceneId(int camera) { return "scene:" + std::to_string(camera); }
@@ -64,13 +115,14 @@ Expected<std::unique_ptr<Camera>> FakeDriver::open(const CameraConfig& config) {
     return Status::Error("fake: camera '" + config.device + "': fake cameras only free-run");
   }
   const std::string& device = config.device;
-  if (device.empty() || device == "scene") return openScene(config, config.index);
-  if (device.rfind("scene:", 0) == 0) {
-    int camera = 0;
-    if (!parseIndex(device.substr(6), camera)) {
+  if (device.empty() || device == "scene" || device.rfind("scene?", 0) == 0 || device.rfind("scene:", 0) == 0) {
+    const std::size_t query = device.find('?');
+    const std::string camera_text = device.substr(0, query);
+    int camera = config.index;
+    if (camera_text.size() > 5 && !parseIndex(camera_text.substr(6), camera)) {
       return Status::Error("fake: device '" + device + "': expected scene:<camera index>");
     }
-    return openScene(config, camera);
+    return openScene(config, camera, query == std::string::npos ? "" : device.substr(query + 1));
   }
   if (device.rfind("replay:", 0) == 0) {
     const std::string rest = device.substr(7);
@@ -85,7 +137,8 @@ Expected<std::unique_ptr<Camera>> FakeDriver::open(const CameraConfig& config) {
                        "' is not scene:<camera index> or replay:<session directory>:<camera index>");
 }
 
-Expected<std::unique_ptr<Camera>> FakeDriver::openScene(const CameraConfig& config, int rig_camera) {
+Expected<std::unique_ptr<Camera>> FakeDriver::openScene(const CameraConfig& config, int rig_camera,
+                                                       const std::string& faults_query) {
   Expected<std::shared_ptr<FakeScene>> built = scene();
   if (!built.ok()) return Status::Error(built.error());
   std::shared_ptr<FakeScene> s = built.value();
@@ -103,10 +156,12 @@ Expected<std::unique_ptr<Camera>> FakeDriver::openScene(const CameraConfig& conf
   }
   Expected<std::string> format = outputFormat(config, s->options().gray ? kPixelGray : kPixelBgr);
   if (!format.ok()) return Status::Error(format.error());
+  Expected<FakeFaults> faults = parseFaults(faults_query, s->options().faults, rig_camera, s->options().fps);
+  if (!faults.ok()) return Status::Error("fake: device '" + config.device + "': " + faults.error());
   CameraInfo info{name(), sceneId(rig_camera),
                   "mocapd fake camera " + std::to_string(rig_camera) + " (" + s->model().name + " scene)",
                   {{cam.width, cam.height, s->options().fps, format.value()}}};
-  return std::unique_ptr<Camera>(new FakeSceneCamera(s, rig_camera, config, std::move(info)));
+  return std::unique_ptr<Camera>(new FakeSceneCamera(s, rig_camera, config, std::move(info), faults.value()));
 }
 
 Expected<std::unique_ptr<Camera>> FakeDriver::openReplay(const CameraConfig& config, const std::string& session,

@@ -4,6 +4,13 @@
 //
 // How a CameraConfig maps:
 //   device "scene:<i>"  camera i of the scene's rig; "" or "scene" means camera config.index.
+//     Either may end in "?<fault>&<fault>..." to give that camera faults of its own, over the
+//     scene's (a daemon's configuration has no other way to set them):
+//       drop_rate=<chance>                       each frame lost with this chance
+//       stall=<s>@<start s>[/<every s>]          frames stop for s seconds from start (scene time),
+//                                                again every `every` seconds if given
+//       disconnect=<s>@<start s>[/<every s>]     the same, reported as the camera going and coming
+//     e.g. "scene:0?drop_rate=0.01&stall=2@30/45".
 //   device "replay:<session dir>:<i>"  camera i of the recorded session at that path.
 //   width, height  must equal the rig's (scene) or the session's (replay) size for that camera.
 //   fps            scene: must equal FakeSceneOptions::fps; replay: ignored (the recorded pace).
@@ -46,7 +53,8 @@ class FakeDriver final : public Driver {
   Expected<std::shared_ptr<FakeScene>> scene();
 
  private:
-  Expected<std::unique_ptr<Camera>> openScene(const CameraConfig& config, int rig_camera);
+  Expected<std::unique_ptr<Camera>> openScene(const CameraConfig& config, int rig_camera,
+                                              const std::string& faults_query);
   Expected<std::unique_ptr<Camera>> openReplay(const CameraConfig& config, const std::string& session, int camera);
 
   const FakeDriverOptions options_;

@@ -314,9 +314,8 @@ uint64_t FakeScene::hash(int camera, uint64_t sequence, uint64_t salt) const {
       sequence);
 }
 
-bool FakeScene::dropped(int camera, uint64_t sequence) const {
-  return options_.faults.drop_rate > 0 &&
-         unitInterval(hash(camera, sequence, 2)) < options_.faults.drop_rate;
+bool FakeScene::dropped(const FakeFaults& faults, int camera, uint64_t sequence) const {
+  return faults.drop_rate > 0 && unitInterval(hash(camera, sequence, 2)) < faults.drop_rate;
 }
 
 int64_t FakeScene::jitterNs(int camera, uint64_t sequence) const {
@@ -330,9 +329,14 @@ int64_t FakeScene::jitterNs(int camera, uint64_t sequence) const {
 
 bool FakeScene::inOutage(const FakeOutage& outage, int camera, uint64_t sequence) const {
   if (outage.camera != camera || outage.duration.count() <= 0) return false;
-  const uint64_t frames =
-      static_cast<uint64_t>((outage.duration.count() + period_ns_ - 1) / period_ns_);
-  return sequence >= outage.after_frames && sequence < outage.after_frames + frames;
+  if (sequence < outage.after_frames) return false;
+  const auto wholePeriods = [this](std::chrono::nanoseconds span) {
+    return static_cast<uint64_t>((span.count() + period_ns_ - 1) / period_ns_);
+  };
+  const uint64_t frames = wholePeriods(outage.duration);
+  uint64_t since_start = sequence - outage.after_frames;
+  if (outage.every.count() > 0) since_start %= std::max(wholePeriods(outage.every), frames + 1);
+  return since_start < frames;
 }
 
 }  // namespace mocap

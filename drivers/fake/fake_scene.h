@@ -26,11 +26,14 @@
 
 namespace mocap {
 
-// A stretch of frames during which one camera delivers nothing.
+// A stretch of frames during which one camera delivers nothing, once or over and over.
 struct FakeOutage {
   int camera = -1;                       // -1: no outage
   uint64_t after_frames = 0;             // starts at this frame sequence
   std::chrono::nanoseconds duration{0};  // rounded up to whole frame periods
+  // Positive: starts again this long after each start (rounded up to whole frame periods, and
+  // never shorter than the outage plus one frame), so a long run sees a camera come and go.
+  std::chrono::nanoseconds every{0};
 };
 
 // Fault knobs, all off by default. Deterministic for a given seed.
@@ -163,8 +166,9 @@ class FakeScene {
   // The background alone (no body, no noise), for tests.
   const cv::Mat& background(int camera) const { return backgrounds_[camera]; }
 
-  // Fault decisions for (camera, sequence): deterministic per seed.
-  bool dropped(int camera, uint64_t sequence) const;
+  // Fault decisions for (camera, sequence): deterministic per seed. `faults` is the camera's: the
+  // scene's, or those its device string gives (fake_driver.h).
+  bool dropped(const FakeFaults& faults, int camera, uint64_t sequence) const;
   int64_t jitterNs(int camera, uint64_t sequence) const;
   bool inOutage(const FakeOutage& outage, int camera, uint64_t sequence) const;
 
