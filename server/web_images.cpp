@@ -4,6 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <thread>
 
 namespace mocap {
@@ -18,24 +19,36 @@ int64_t steadyNowNs() {
 // How long after a browser's last image request frames are still kept for it.
 constexpr auto kWantedFor = std::chrono::seconds(2);
 constexpr int kJpegQuality = 80;
-// At this weight every tinted pixel is at least 51 greener than it is red or blue, whatever its
-// colour (pure red becomes 102,153,0), so the silhouette stays distinguishable from the subject.
-constexpr double kTintWeight = 0.6;
+// The tint's weight in 256ths (0.6): every tinted pixel is then at least 51 greener than it is
+// red or blue, whatever its colour (pure red becomes 102,153,0), so the silhouette stays
+// distinguishable from the subject.
+constexpr int kTintWeight = 154;
 
-cv::Mat tinted(const cv::Mat& image, const SilhouetteMask* mask) {
-  cv::Mat bgr;
+// `image` as BGR in `bgr` (its buffer reused) with the tint blended in where `mask` is set. Only
+// the silhouette's pixels are touched: the rest of a frame is a copy.
+void tintInto(const cv::Mat& image, const SilhouetteMask* mask, cv::Mat& bgr) {
   if (image.channels() == 1)
     cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
   else
-    bgr = image.clone();
-  if (!mask || mask->width() != bgr.cols || mask->height() != bgr.rows) return bgr;
-  const cv::Scalar tint(CameraImages::kTintBgr[0], CameraImages::kTintBgr[1],
-                        CameraImages::kTintBgr[2]);
-  cv::Mat blended;
-  cv::addWeighted(bgr, 1 - kTintWeight, cv::Mat(bgr.size(), CV_8UC3, tint), kTintWeight, 0,
-                  blended);
-  blended.copyTo(bgr, mask->toMat());
-  return bgr;
+    image.copyTo(bgr);
+  if (!mask || mask->width() != bgr.cols || mask->height() != bgr.rows) return;
+  constexpr int kBlock = 64;
+  for (int y = 0; y < bgr.rows; ++y) {
+    const SilhouetteMask::Row row = mask->row(y);
+    unsigned char* pixels = bgr.ptr<unsigned char>(y);
+    for (int x0 = 0; x0 < bgr.cols; x0 += kBlock) {
+      const int x1 = std::min(x0 + kBlock, bgr.cols);
+      if (row.count(x0, x1) == 0) continue;
+      for (int x = x0; x < x1; ++x) {
+        if (row.count(x, x + 1) == 0) continue;
+        for (int c = 0; c < 3; ++c) {
+          unsigned char& value = pixels[3 * x + c];
+          value = static_cast<unsigned char>(
+              (value * (256 - kTintWeight) + CameraImages::kTintBgr[c] * kTintWeight + 128) >> 8);
+        }
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -88,10 +101,9 @@ std::optional<std::string> CameraImages::jpeg(std::size_t camera) {
     return cached.jpeg;
   }
   if (sequence != cached.set_sequence || cached.jpeg.empty()) {
-    std::vector<unsigned char> bytes;
-    cv::imencode(".jpg", tinted(image, mask.get()), bytes,
-                 {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
-    cached.jpeg.assign(bytes.begin(), bytes.end());
+    tintInto(image, mask.get(), cached.tinted);
+    cv::imencode(".jpg", cached.tinted, cached.bytes, {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
+    cached.jpeg.assign(cached.bytes.begin(), cached.bytes.end());
     cached.set_sequence = sequence;
   }
   cached.encoded = now;

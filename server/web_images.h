@@ -39,6 +39,8 @@ class CameraImages {
  private:
   struct Cached {
     std::mutex mutex;
+    cv::Mat tinted;                    // reused: a new 1.4 MB buffer per image costs page faults
+    std::vector<unsigned char> bytes;  // likewise
     std::string jpeg;
     uint64_t set_sequence = 0;
     std::chrono::steady_clock::time_point encoded{};

@@ -3,6 +3,8 @@
 
 #include <httplib.h>
 
+#include <pthread.h>
+
 #include <charconv>
 #include <fstream>
 #include <future>
@@ -26,6 +28,7 @@ constexpr const char* kThreeDirectory = "/usr/share/javascript/three/";
 // and the rest serve pages, images, status and controls.
 constexpr std::size_t kServerThreads = 24;
 constexpr int kMaxStreams = 16;
+constexpr const char* kThreadName = "mocapd-web";
 // A camera's image is encoded at most this often (5 Hz), however many browsers ask.
 constexpr auto kImageInterval = std::chrono::milliseconds(200);
 // An idle event stream sends a comment this often, which also finds a browser that left.
@@ -51,6 +54,24 @@ std::string readFile(const std::string& path) {
   text << in.rdbuf();
   return text.str();
 }
+
+// The server's pool, its threads named so that `top -H` and tests/bench/web_cost.py tell the web
+// view's CPU from the tracker's: each names itself when it takes its first connection.
+class NamedThreadPool final : public httplib::TaskQueue {
+ public:
+  explicit NamedThreadPool(std::size_t threads) : pool_(threads) {}
+  void enqueue(std::function<void()> task) override {
+    pool_.enqueue([task = std::move(task)] {
+      thread_local const bool named = pthread_setname_np(pthread_self(), kThreadName) == 0;
+      (void)named;
+      task();
+    });
+  }
+  void shutdown() override { pool_.shutdown(); }
+
+ private:
+  httplib::ThreadPool pool_;
+};
 
 bool sameSecret(const std::string& a, const std::string& b) {
   unsigned char difference = a.size() == b.size() ? 0 : 1;
@@ -158,7 +179,7 @@ WebView::WebView(const ServerConfig& config, Pipeline& pipeline, const Rig& rig,
       publisher_(publisher),
       images_(pipeline.cameras().size(), kImageInterval),
       server_(std::make_unique<httplib::Server>()) {
-  server_->new_task_queue = [] { return new httplib::ThreadPool(kServerThreads); };
+  server_->new_task_queue = [] { return new NamedThreadPool(kServerThreads); };
   // Short, so idle browser connections give their thread back soon.
   server_->set_keep_alive_timeout(1);
   addRoutes();
@@ -189,7 +210,10 @@ Status WebView::start() {
   if (port_ <= 0)
     return Status::Error("web.listen: cannot listen on " + listen + " (address in use or invalid)");
   subscribed_ = publisher_.subscribe(this);
-  listener_ = std::thread([this] { server_->listen_after_bind(); });
+  listener_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), kThreadName);
+    server_->listen_after_bind();
+  });
   return Status::Ok();
 }
 

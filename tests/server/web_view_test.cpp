@@ -291,6 +291,7 @@ std::string chromium() {
   return "";
 }
 
+// The DevTools protocol sends the screenshot's PNG as base64.
 std::string decodeBase64(const std::string& text) {
   std::string bytes;
   uint32_t bits = 0;
