@@ -292,6 +292,12 @@ void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubj
       describeProportions(*drawn, "subject_proportions", out);
       out["subject_height_m"] = renderer.subjectParams()->height;
     }
+    if (const auto extraction = renderer.extractionScore())
+      out["extraction"] = {{"iou", extraction->iou},
+                           {"person_missed", extraction->missed},
+                           {"shadow_taken", extraction->shadow_taken},
+                           {"room_taken", extraction->room_taken},
+                           {"camera_frames", extraction->frames}};
   }
   if (config.skip_rate > 0) {
     out["skip_rate"] = config.skip_rate;

@@ -108,8 +108,35 @@ void HumanScene::renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::Mat
     if (!extractors_[c]->extract(frame_.image))
       throw std::runtime_error("silhouette extraction: " + extractors_[c]->lastError());
     extractors_[c]->foreground().copyTo(images[c]);
+    countExtraction(images[c]);
   }
   ++time_;
+}
+
+void HumanScene::countExtraction(const cv::Mat& extracted) {
+  ExtractionCounts& n = extraction_counts_;
+  const cv::Mat& person = frame_.body;
+  const cv::Mat room = ~(person | frame_.shadow);
+  const int both = cv::countNonZero(extracted & person);
+  const int either = cv::countNonZero(extracted | person);
+  n.iou_sum += either > 0 ? static_cast<double>(both) / either : 1.0;
+  ++n.frames;
+  n.person += cv::countNonZero(person);
+  n.missed += cv::countNonZero(person) - both;
+  n.shadow += cv::countNonZero(frame_.shadow);
+  n.shadow_taken += cv::countNonZero(extracted & frame_.shadow);
+  n.room += cv::countNonZero(room);
+  n.room_taken += cv::countNonZero(extracted & room);
+}
+
+std::optional<HumanScene::ExtractionScore> HumanScene::extractionScore() const {
+  const ExtractionCounts& n = extraction_counts_;
+  if (!options_.extracted || n.frames == 0) return std::nullopt;
+  const auto share = [](long part, long whole) {
+    return whole > 0 ? static_cast<double>(part) / static_cast<double>(whole) : 0.0;
+  };
+  return ExtractionScore{n.iou_sum / static_cast<double>(n.frames), share(n.missed, n.person),
+                         share(n.shadow_taken, n.shadow), share(n.room_taken, n.room), n.frames};
 }
 
 void HumanScene::hideSegment(int camera, int segment) {

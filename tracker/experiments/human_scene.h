@@ -58,8 +58,18 @@ class HumanScene {
   std::optional<BodyProportions> subjectProportions(const BodyModel& shipped) const;
   const SubjectParams* subjectParams() const;
 
+  // Extracted silhouettes against the person's true ones, over every camera frame rendered so
+  // far: mean IoU, and the shares of the person missed, of the cast shadow taken as person, and of
+  // the rest of the room taken as person. Empty for true silhouettes.
+  struct ExtractionScore {
+    double iou = 0, missed = 0, shadow_taken = 0, room_taken = 0;
+    long frames = 0;
+  };
+  std::optional<ExtractionScore> extractionScore() const;
+
  private:
   void renderLayers(const Eigen::VectorXd& q);
+  void countExtraction(const cv::Mat& extracted);
 
   BodyModel model_;
   Rig rig_;
@@ -74,6 +84,10 @@ class HumanScene {
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;
   TestSceneFrame frame_;
   std::vector<cv::Mat> model_masks_;
+  struct ExtractionCounts {
+    double iou_sum = 0;
+    long frames = 0, person = 0, missed = 0, shadow = 0, shadow_taken = 0, room = 0, room_taken = 0;
+  } extraction_counts_;
   int time_ = 0;  // the rooms' frame count: light drift and noise move on with it
 };
 

@@ -1,7 +1,7 @@
 // Silhouette extraction: gain estimate; one pass over the rows that normalizes, range-tests
-// (vectorized) and runs the shadow test on the changed pixels only (gray: a plane fit four pixels
-// at a time, then joined to textured shadows by connectivity); morphology on bit-packed rows;
-// contour-based blob and hole cleanup; slow adaptation.
+// (vectorized) and runs the shadow test on the changed pixels only (BGR: the colour first; then a
+// plane fit four pixels at a time, joined to textured shadows by connectivity); morphology on
+// bit-packed rows; contour-based blob and hole cleanup; slow adaptation.
 #include "tracker/vision/silhouette_extractor.h"
 
 #include <algorithm>
@@ -22,9 +22,9 @@ void checkOptions(const SilhouetteOptions& o) {
   require(o.threshold_sigmas > 0 && o.min_difference >= 0, "thresholds must be positive");
   require(o.shadow_texture_sigmas > 0 && o.shadow_texture_contrast >= 0,
           "shadow_texture_sigmas must be > 0 and shadow_texture_contrast >= 0");
-  require(o.shadow_min_ratio > 0 && o.shadow_min_ratio < o.shadow_max_ratio &&
-              o.shadow_max_ratio <= 1,
-          "shadow ratio band must satisfy 0 < min < max <= 1");
+  require(
+      o.shadow_min_ratio > 0 && o.shadow_min_ratio < o.shadow_max_ratio && o.shadow_max_ratio <= 1,
+      "shadow ratio band must satisfy 0 < min < max <= 1");
   require(o.open_radius >= 0 && o.close_radius >= 0 && o.open_radius < 64 && o.close_radius < 64,
           "morphology radii must be in [0, 63]");
   require(o.min_blob_fraction >= 0 && o.max_hole_fraction >= 0, "blob/hole sizes must be >= 0");
@@ -64,7 +64,31 @@ silhouette_kernels::RunMorphology diskMorphology(int radius) {
       cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1)));
 }
 
-// Rows of the gray ratio ring: the plane fit reads three floats past the last column.
+// Per pixel of a BGR float image: sqrt(b^2 + g^2 + r^2), the scale of its colour.
+cv::Mat colorMagnitude(const cv::Mat& bgr) {
+  cv::Mat magnitude(bgr.size(), CV_32FC1);
+  for (int y = 0; y < bgr.rows; ++y) {
+    const float* mu = bgr.ptr<float>(y);
+    float* out = magnitude.ptr<float>(y);
+    for (int x = 0; x < bgr.cols; ++x, mu += 3)
+      out[x] = std::sqrt(mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2]);
+  }
+  return magnitude;
+}
+
+// Per pixel of a BGR float image: 1 / (b^2 + g^2 + r^2 + 1), into `inverse` (reallocated if
+// needed).
+void inverseColorEnergy(const cv::Mat& bgr, cv::Mat& inverse) {
+  inverse.create(bgr.size(), CV_32FC1);
+  for (int y = 0; y < bgr.rows; ++y) {
+    const float* mu = bgr.ptr<float>(y);
+    float* out = inverse.ptr<float>(y);
+    for (int x = 0; x < bgr.cols; ++x, mu += 3)
+      out[x] = 1.0f / (mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2] + 1.0f);
+  }
+}
+
+// Rows of the ratio ring: the plane fit reads three floats past the last column.
 constexpr int kRatioRing = 5, kRatioPadding = 4;
 
 }  // namespace
@@ -82,9 +106,12 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
       (background.channels() != 1 && background.channels() != 3) ||
       background.stddev.size() != background.size() ||
       background.stddev.type() != background.mean.type())
-    throw std::invalid_argument("background model: expected float mean and stddev of 1 or 3 "
-                                "channels and equal sizes");
-  background_ = std::move(background);
+    throw std::invalid_argument(
+        "background model: expected float mean and stddev of 1 or 3 "
+        "channels and equal sizes");
+  // Own copies: adapt() blends into the mean in place, and the caller's model (e.g. the one saved
+  // as learned) may be shared with other readers.
+  background_ = {background.mean.clone(), background.stddev.clone()};
   const cv::Rect frame(cv::Point(0, 0), background_.size());
   roi_ = options_.region_of_interest.empty() ? frame : (options_.region_of_interest & frame);
   if (roi_.empty()) throw std::invalid_argument("region of interest lies outside the frame");
@@ -92,29 +119,30 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
   const int channels = background_.channels();
   const cv::Mat stddev = background_.stddev(roi_);
   margin_ = cv::max(stddev * options_.threshold_sigmas, options_.min_difference);
-  cv::Mat flat = stddev.clone().reshape(1, stddev.rows * stddev.cols);  // a region is not continuous
+  cv::Mat flat =
+      stddev.clone().reshape(1, stddev.rows * stddev.cols);  // a region is not continuous
   cv::reduce(flat, pixel_sigma_, 1, cv::REDUCE_AVG);
   pixel_sigma_ = cv::max(pixel_sigma_.reshape(1, stddev.rows), 1.0f);  // floor: quantization
-  if (channels == 1) {
-    // Gray shadow test: how far the background's texture stands out of the noise over each 5x5
-    // patch once a plane is removed (a shadow scales that texture; a flat patch cannot show it).
-    // Learned once: adaptation follows slow light changes, which barely change the texture.
-    const cv::Mat mean = background_.mean(roi_);
-    const cv::Mat ones = cv::Mat::ones(5, 1, CV_32F);
-    const cv::Mat ramp = (cv::Mat_<float>(5, 1) << -2, -1, 0, 1, 2);
-    cv::Mat sum, sum_sq, sum_x, sum_y, noise;
-    cv::boxFilter(mean, sum, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
-    cv::sqrBoxFilter(mean, sum_sq, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
-    cv::sepFilter2D(mean, sum_x, CV_32F, ramp, ones);
-    cv::sepFilter2D(mean, sum_y, CV_32F, ones, ramp);
-    cv::sqrBoxFilter(pixel_sigma_, noise, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
-    texture_ = sum_sq - sum.mul(sum) / 25.0f - (sum_x.mul(sum_x) + sum_y.mul(sum_y)) / 50.0f;
-    cv::divide(cv::max(texture_, 0.0f), noise, texture_);
-    weak_shadow_ = cv::Mat::zeros(stddev.size(), CV_8UC1);
-    scratch_.ratio_rows = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
-    scratch_.ratio_squares = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
-    scratch_.fit_columns.reserve(static_cast<std::size_t>(stddev.cols));
-  }
+  // Shadow test: how far the background's texture stands out of the noise over each 5x5 patch once
+  // a plane is removed (a shadow scales that texture; a flat patch cannot show it). Gray: of the
+  // mean; BGR: of its magnitude, the scale of the ratio's colour direction. Learned once:
+  // adaptation follows slow light changes, which barely change the texture.
+  cv::Mat base = background_.mean(roi_);
+  if (channels == 3) base = colorMagnitude(base);
+  const cv::Mat ones = cv::Mat::ones(5, 1, CV_32F);
+  const cv::Mat ramp = (cv::Mat_<float>(5, 1) << -2, -1, 0, 1, 2);
+  cv::Mat sum, sum_sq, sum_x, sum_y, noise;
+  cv::boxFilter(base, sum, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+  cv::sqrBoxFilter(base, sum_sq, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+  cv::sepFilter2D(base, sum_x, CV_32F, ramp, ones);
+  cv::sepFilter2D(base, sum_y, CV_32F, ones, ramp);
+  cv::sqrBoxFilter(pixel_sigma_, noise, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+  texture_ = sum_sq - sum.mul(sum) / 25.0f - (sum_x.mul(sum_x) + sum_y.mul(sum_y)) / 50.0f;
+  cv::divide(cv::max(texture_, 0.0f), noise, texture_);
+  weak_shadow_ = cv::Mat::zeros(stddev.size(), CV_8UC1);
+  scratch_.ratio_rows = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
+  scratch_.ratio_squares = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
+  scratch_.fit_columns.reserve(static_cast<std::size_t>(stddev.cols));
 
   const cv::Size size = roi_.size();
   lower_.create(size, CV_8UC(channels));
@@ -141,15 +169,20 @@ void SilhouetteExtractor::rebuildBounds() {
   for (int y = 0; y < mean.rows; ++y)
     silhouette_kernels::boundsRow(mean.ptr<float>(y), margin_.ptr<float>(y), count,
                                   lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y));
+  // Shadow test: what turns the frame into the ratio frame / background (gray: 1 / background;
+  // BGR: 1 / the background's energy), and the noise of that ratio summed over each 5x5 patch
+  // (unnormalized box filter): (sigma / background)^2, or sigma^2 / energy, per pixel.
   if (background_.channels() == 1) {
-    // Gray shadow test: 1 / background, and the noise of the ratio frame/background summed over
-    // each 5x5 patch (unnormalized box filter), (sigma / background)^2 per pixel.
     cv::add(mean, 1.0f, bound_scratch_);  // never divides by zero
     cv::divide(1.0f, bound_scratch_, inverse_mean_);
     cv::multiply(pixel_sigma_, inverse_mean_, bound_scratch_);
     cv::multiply(bound_scratch_, bound_scratch_, bound_scratch_);
-    cv::boxFilter(bound_scratch_, ratio_noise_, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+  } else {
+    inverseColorEnergy(mean, inverse_mean_);
+    cv::multiply(pixel_sigma_, pixel_sigma_, bound_scratch_);
+    cv::multiply(bound_scratch_, inverse_mean_, bound_scratch_);
   }
+  cv::boxFilter(bound_scratch_, ratio_noise_, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
 }
 
 void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
@@ -184,72 +217,76 @@ void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
   gain_ = *middle;
 }
 
-void SilhouetteExtractor::classifyColorRow(int y) {
-  const cv::Mat mean = background_.mean(roi_);
+bool SilhouetteExtractor::keepsBackgroundColor(const uint8_t* in, const float* mu,
+                                               float sigma) const {
+  // A shadow dims the light but keeps the surface's colour: the pixel lies near the background
+  // colour scaled by its brightness ratio.
   const SilhouetteOptions& o = options_;
-  const uint8_t* same = scratch_.unchanged.ptr<uint8_t>(y);
-  const uint8_t* in = scratch_.normalized.ptr<uint8_t>(y);
-  const float* mu = mean.ptr<float>(y);
-  const float* sigma = pixel_sigma_.ptr<float>(y);
-  uint8_t* candidate = scratch_.candidates.ptr<uint8_t>(y);
-  uint8_t* shadow = shadow_.ptr<uint8_t>(y);
-  std::memset(candidate, 0, static_cast<std::size_t>(mean.cols));
-  std::memset(shadow, 0, static_cast<std::size_t>(mean.cols));
-  for (int x = 0; x < mean.cols; ++x) {
-    if (same[x]) {
-      x = skipUnchanged(same, x, mean.cols) - 1;
-      continue;
-    }
-    const float b = in[3 * x], g = in[3 * x + 1], r = in[3 * x + 2];
-    const float mb = mu[3 * x], mg = mu[3 * x + 1], mr = mu[3 * x + 2];
-    const float energy = mb * mb + mg * mg + mr * mr + 1.0f;
-    const float ratio = (b * mb + g * mg + r * mr) / energy;  // brightness relative to background
-    bool is_shadow = false;
-    if (o.suppress_shadows && ratio >= o.shadow_min_ratio && ratio <= o.shadow_max_ratio) {
-      const float db = b - ratio * mb, dg = g - ratio * mg, dr = r - ratio * mr;
-      const float tolerance =
-          o.shadow_chroma_sigmas * sigma[x] + o.shadow_chroma_ratio * ratio * std::sqrt(energy);
-      is_shadow = db * db + dg * dg + dr * dr <= tolerance * tolerance;
-    }
-    (is_shadow ? shadow : candidate)[x] = 255;
-  }
+  const float b = in[0], g = in[1], r = in[2];
+  const float mb = mu[0], mg = mu[1], mr = mu[2];
+  const float energy = mb * mb + mg * mg + mr * mr + 1.0f;
+  const float ratio = (b * mb + g * mg + r * mr) / energy;
+  const float db = b - ratio * mb, dg = g - ratio * mg, dr = r - ratio * mr;
+  const float tolerance =
+      o.shadow_chroma_sigmas * sigma + o.shadow_chroma_ratio * ratio * std::sqrt(energy);
+  return db * db + dg * dg + dr * dr <= tolerance * tolerance;
 }
 
-void SilhouetteExtractor::classifyGray(const cv::Mat& region, float scale) {
+void SilhouetteExtractor::classify(const cv::Mat& region, float scale) {
   // Row y is classified once rows y-2 .. y+2 are normalized: the plane fit reads them from a ring.
-  const int rows = roi_.height, cols = roi_.width;
+  const int rows = roi_.height, cols = roi_.width, channels = region.channels();
   cv::Point weak_min(cols, rows), weak_max(-1, -1);
+  scratch_.ratio_row_in_slot.fill(-1);
   for (int y = 0; y < rows + 2; ++y) {
-    if (y < rows) {
-      uint8_t* normalized = scratch_.normalized.ptr<uint8_t>(y);
-      silhouette_kernels::normalizeAndTestRow(region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y),
-                                              upper_.ptr<uint8_t>(y), cols, 1, scale, normalized,
-                                              scratch_.unchanged.ptr<uint8_t>(y));
-      silhouette_kernels::ratioRow(normalized, inverse_mean_.ptr<float>(y), cols,
-                                   scratch_.ratio_rows.ptr<float>(y % kRatioRing),
-                                   scratch_.ratio_squares.ptr<float>(y % kRatioRing));
-    }
-    if (y >= 2) classifyGrayRow(y - 2, weak_min, weak_max);
+    if (y < rows)
+      silhouette_kernels::normalizeAndTestRow(
+          region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y), cols, channels,
+          scale, scratch_.normalized.ptr<uint8_t>(y), scratch_.unchanged.ptr<uint8_t>(y));
+    if (y >= 2) classifyRow(y - 2, weak_min, weak_max);
   }
   if (weak_max.x >= weak_min.x) resolveWeakShadows(cv::Rect(weak_min, weak_max + cv::Point(1, 1)));
 }
 
-void SilhouetteExtractor::classifyGrayRow(int y, cv::Point& weak_min, cv::Point& weak_max) {
+void SilhouetteExtractor::ensureRatioRow(int y) {
+  // Ratios are needed only around changed pixels: most rows of most frames have none.
+  const int slot = y % kRatioRing;
+  if (scratch_.ratio_row_in_slot[slot] == y) return;
+  scratch_.ratio_row_in_slot[slot] = y;
+  const uint8_t* normalized = scratch_.normalized.ptr<uint8_t>(y);
+  float* ratio = scratch_.ratio_rows.ptr<float>(slot);
+  float* ratio_squared = scratch_.ratio_squares.ptr<float>(slot);
+  if (background_.channels() == 1)
+    silhouette_kernels::ratioRow(normalized, inverse_mean_.ptr<float>(y), roi_.width, ratio,
+                                 ratio_squared);
+  else
+    silhouette_kernels::colorRatioRow(normalized, background_.mean(roi_).ptr<float>(y),
+                                      inverse_mean_.ptr<float>(y), roi_.width, ratio,
+                                      ratio_squared);
+}
+
+void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& weak_max) {
   const SilhouetteOptions& o = options_;
   const float noise_scale = o.shadow_texture_sigmas * o.shadow_texture_sigmas;
   const int rows = roi_.height, cols = roi_.width;
   const uint8_t* same = scratch_.unchanged.ptr<uint8_t>(y);
-  const float* centre = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
   uint8_t* candidate = scratch_.candidates.ptr<uint8_t>(y);
   uint8_t* shadow = shadow_.ptr<uint8_t>(y);
   std::memset(candidate, 0, static_cast<std::size_t>(cols));
   std::memset(shadow, 0, static_cast<std::size_t>(cols));
+  if (skipUnchanged(same, 0, cols) == cols) return;
   // A shadow scales the background by a factor that varies smoothly (a soft edge is a ramp), so
   // over the 5x5 patch the ratio frame/background fits a plane up to the noise. A person brings
   // their own shading, stripes and edges and ignores the background's texture: the plane leaves
   // more than the learned noise (flat on flat stays ambiguous). Changed pixels whose own ratio is
-  // in the shadow band take the fit; the others are the person's.
+  // in the shadow band (and, in colour, that keep the background's colour) take the fit; the
+  // others are the person's. Colour alone is not enough: grey clothes over a grey floor keep it.
   const bool fits_row = o.suppress_shadows && y > 1 && y < rows - 2;
+  if (fits_row) ensureRatioRow(y);
+  const float* centre = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
+  const bool color = background_.channels() == 3;
+  const uint8_t* in = scratch_.normalized.ptr<uint8_t>(y);
+  const float* mu = background_.mean(roi_).ptr<float>(y);
+  const float* sigma = pixel_sigma_.ptr<float>(y);
   std::vector<int>& fit = scratch_.fit_columns;
   fit.clear();
   for (int x = 0; x < cols; ++x) {
@@ -258,12 +295,14 @@ void SilhouetteExtractor::classifyGrayRow(int y, cv::Point& weak_min, cv::Point&
       continue;
     }
     if (fits_row && x > 1 && x < cols - 2 && centre[x] >= o.shadow_min_ratio &&
-        centre[x] <= o.shadow_max_ratio)
+        centre[x] <= o.shadow_max_ratio &&
+        (!color || keepsBackgroundColor(in + 3 * x, mu + 3 * x, sigma[x])))
       fit.push_back(x);
     else
       candidate[x] = 255;
   }
   if (fit.empty()) return;
+  for (int dy = -2; dy <= 2; ++dy) ensureRatioRow(y + dy);
   const float* rows_ratio[kRatioRing];
   const float* rows_square[kRatioRing];
   for (int dy = -2; dy <= 2; ++dy) {
@@ -396,8 +435,8 @@ void SilhouetteExtractor::adapt() {
 
 bool SilhouetteExtractor::extract(const cv::Mat& frame) {
   if (frame.size() != background_.size() || frame.type() != CV_8UC(background_.channels())) {
-    error_ = "frame is " + std::to_string(frame.cols) + "x" + std::to_string(frame.rows) + " with " +
-             std::to_string(frame.channels()) + " channel(s) of depth " +
+    error_ = "frame is " + std::to_string(frame.cols) + "x" + std::to_string(frame.rows) +
+             " with " + std::to_string(frame.channels()) + " channel(s) of depth " +
              std::to_string(frame.depth()) + ", background is " +
              std::to_string(background_.size().width) + "x" +
              std::to_string(background_.size().height) + " 8-bit with " +
@@ -409,16 +448,7 @@ bool SilhouetteExtractor::extract(const cv::Mat& frame) {
   if (options_.compensate_gain) estimateGain(region);
   // convertTo's scale: the float nearest 1 / gain.
   const float scale = static_cast<float>(1.0 / gain_);
-  if (background_.channels() == 3) {
-    for (int y = 0; y < roi_.height; ++y) {
-      silhouette_kernels::normalizeAndTestRow(
-          region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y), roi_.width, 3,
-          scale, scratch_.normalized.ptr<uint8_t>(y), scratch_.unchanged.ptr<uint8_t>(y));
-      classifyColorRow(y);
-    }
-  } else {
-    classifyGray(region, scale);
-  }
+  classify(region, scale);
   cleanup();
   if (options_.adaptive && ++frame_count_ % options_.adapt_interval == 0) adapt();
   if (options_.build_silhouette_mask) silhouette_ = SilhouetteMask(foreground_);

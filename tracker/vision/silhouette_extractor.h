@@ -6,6 +6,7 @@
 // first ones (except inside OpenCV's contour finder and the SilhouetteMask constructor).
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -24,10 +25,11 @@ struct SilhouetteOptions {
 
   // Shadows darken the background by a factor in [shadow_min_ratio, shadow_max_ratio]; BGR: the
   // colour stays that of the background within chroma_sigmas * stddev + chroma_ratio * brightness;
-  // gray: over the 5x5 neighbourhood the ratio frame / background fits a plane (a soft shadow edge
-  // is a ramp) within texture_sigmas times the learned noise. Such a patch is a shadow outright if
-  // the background's texture, scaled by the ratio, carries texture_contrast times the noise energy;
-  // a flatter one only if it is connected to such a shadow, else it is the person's.
+  // both: over the 5x5 neighbourhood the ratio frame / background (BGR: along the background's
+  // colour) fits a plane (a soft shadow edge is a ramp) within texture_sigmas times the learned
+  // noise. Such a patch is a shadow outright if the background's texture, scaled by the ratio,
+  // carries texture_contrast times the noise energy; a flatter one only if it is connected to such
+  // a shadow, else it is the person's.
   bool suppress_shadows = true;
   float shadow_min_ratio = 0.35f;
   float shadow_max_ratio = 0.97f;
@@ -87,13 +89,15 @@ class SilhouetteExtractor {
  private:
   // Per-frame working buffers, sized by setBackground and reused by every frame.
   struct Scratch {
-    cv::Mat normalized;    // the frame's region of interest divided by the gain
-    cv::Mat unchanged;     // 255 where every channel is in range
-    cv::Mat candidates;    // changed and not shadow, before cleanup
+    cv::Mat normalized;                     // the frame's region of interest divided by the gain
+    cv::Mat unchanged;                      // 255 where every channel is in range
+    cv::Mat candidates;                     // changed and not shadow, before cleanup
     silhouette_kernels::PackedMask packed;  // the candidates through the morphology
     cv::Mat cleaned;
-    cv::Mat ratio_rows, ratio_squares;  // gray: frame / background of the last 5 rows, squared
-    std::vector<int> fit_columns;  // gray: one row's pixels that take the plane fit
+    // frame / background of 5 rows (row y in slot y % 5), and its square
+    cv::Mat ratio_rows, ratio_squares;
+    std::array<int, 5> ratio_row_in_slot{};  // the row each slot holds this frame, -1 if none
+    std::vector<int> fit_columns;            // one row's pixels that take the plane fit
     std::vector<int> flood_stack;
     std::vector<std::vector<cv::Point>> contours;
     std::vector<cv::Vec4i> hierarchy;
@@ -102,9 +106,10 @@ class SilhouetteExtractor {
 
   void rebuildBounds();
   void estimateGain(const cv::Mat& frame);
-  void classifyColorRow(int y);
-  void classifyGray(const cv::Mat& region, float scale);
-  void classifyGrayRow(int y, cv::Point& weak_min, cv::Point& weak_max);
+  bool keepsBackgroundColor(const uint8_t* in, const float* mu, float sigma) const;
+  void classify(const cv::Mat& region, float scale);
+  void ensureRatioRow(int y);
+  void classifyRow(int y, cv::Point& weak_min, cv::Point& weak_max);
   void resolveWeakShadows(cv::Rect box);
   void cleanup();
   void adapt();
@@ -112,13 +117,13 @@ class SilhouetteExtractor {
   BackgroundModel background_;
   SilhouetteOptions options_;
   cv::Rect roi_;
-  cv::Mat margin_;        // per channel: max(threshold_sigmas * stddev, min_difference)
-  cv::Mat pixel_sigma_;   // CV_32FC1: mean stddev over channels
-  cv::Mat inverse_mean_;  // gray: 1 / (mean + 1)
-  cv::Mat ratio_noise_;   // gray: sum over each 5x5 patch of (pixel_sigma / (mean + 1))^2
-  cv::Mat texture_;       // gray: the background's texture energy over each 5x5 patch / noise
-  cv::Mat weak_shadow_;   // gray: fits a shadow over a flat patch (255); 0 between frames
-  cv::Mat lower_, upper_; // CV_8UC(c): the unchanged range of each channel
+  cv::Mat margin_;         // per channel: max(threshold_sigmas * stddev, min_difference)
+  cv::Mat pixel_sigma_;    // CV_32FC1: mean stddev over channels
+  cv::Mat inverse_mean_;   // gray: 1 / (mean + 1); BGR: 1 / (|mean|^2 + 1)
+  cv::Mat ratio_noise_;    // sum over each 5x5 patch of the ratio's noise variance
+  cv::Mat texture_;        // the background's texture energy over each 5x5 patch / noise
+  cv::Mat weak_shadow_;    // fits a shadow over a flat patch (255); 0 between frames
+  cv::Mat lower_, upper_;  // CV_8UC(c): the unchanged range of each channel
   cv::Mat bound_scratch_;
   cv::Mat foreground_, shadow_;
   silhouette_kernels::RunMorphology open_, close_;

@@ -139,6 +139,44 @@ void ratioRow(const uint8_t* normalized, const float* inverse_mean, int cols, fl
   }
 }
 
+void colorRatioRow(const uint8_t* normalized, const float* mean, const float* inverse_energy,
+                   int cols, float* ratio, float* ratio_squared) {
+  int x = 0;
+  for (; x + 16 <= cols; x += 16) {
+    cv::v_uint8x16 b8, g8, r8;
+    cv::v_load_deinterleave(normalized + 3 * x, b8, g8, r8);
+    v_float32x4 b[4], g[4], r[4];
+    const auto toFloats = [](const cv::v_uint8x16& bytes, v_float32x4 out[4]) {
+      cv::v_uint16x8 low, high;
+      cv::v_expand(bytes, low, high);
+      cv::v_uint32x4 a, c;
+      cv::v_expand(low, a, c);
+      out[0] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a));
+      out[1] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(c));
+      cv::v_expand(high, a, c);
+      out[2] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a));
+      out[3] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(c));
+    };
+    toFloats(b8, b);
+    toFloats(g8, g);
+    toFloats(r8, r);
+    for (int k = 0; k < 4; ++k) {
+      const int at = x + 4 * k;
+      v_float32x4 mb, mg, mr;
+      cv::v_load_deinterleave(mean + 3 * at, mb, mg, mr);
+      const v_float32x4 q = (b[k] * mb + g[k] * mg + r[k] * mr) * cv::v_load(inverse_energy + at);
+      cv::v_store(ratio + at, q);
+      cv::v_store(ratio_squared + at, q * q);
+    }
+  }
+  for (; x < cols; ++x) {
+    const uint8_t* in = normalized + 3 * x;
+    const float* mu = mean + 3 * x;
+    ratio[x] = (in[0] * mu[0] + in[1] * mu[1] + in[2] * mu[2]) * inverse_energy[x];
+    ratio_squared[x] = ratio[x] * ratio[x];
+  }
+}
+
 void fitPlanes(const float* const rows[5], const float* const squares[5], int x0, float mean[4],
                float residual[4]) {
   const v_float32x4 zero = cv::v_setzero_f32();

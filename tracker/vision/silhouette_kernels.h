@@ -25,6 +25,13 @@ void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower
 void ratioRow(const uint8_t* normalized, const float* inverse_mean, int cols, float* ratio,
               float* ratio_squared);
 
+// The colour shadow test's ratio: the frame's component along the background colour over the
+// background's, ratio = (b * mb + g * mg + r * mr) * inverse_energy, where `normalized` holds BGR
+// bytes, `mean` the background's BGR floats and inverse_energy 1 / (mb^2 + mg^2 + mr^2 + 1); and
+// its square. The sums run in that order, as a plain loop does.
+void colorRatioRow(const uint8_t* normalized, const float* mean, const float* inverse_energy,
+                   int cols, float* ratio, float* ratio_squared);
+
 // The least-squares plane of the ratio over the 5x5 patches centred on pixels x0 .. x0+3 of the
 // middle row: `rows` and `squares` point at the five rows' ratios and squared ratios, readable from
 // x0 - 2 to x0 + 5. Per pixel, `mean` is the patch's mean ratio and `residual` what the plane
