@@ -1,0 +1,225 @@
+#!/usr/bin/python3
+"""What the web view costs the daemon (docs/web.md), printed as JSON.
+
+mocapd runs the fake walk (deploy/configs/fake-walk.yaml: 2 cameras, 780x580, 25 Hz) with its web
+view on loopback. Each run starts a fresh daemon, lets it settle, and measures two phases of
+SECONDS each, in alternating order from run to run so that a drift of the machine's load falls on
+both:
+  cpu   the daemon's CPU (utime + stime from /proc/<pid>/stat) in % of one core, with no browser
+        and with one browser, whose difference is the view's cost; and the CPU of the view's own
+        threads (named mocapd-web: the server, every request and event stream, the JPEG
+        encoding), which the tracker's share of a loaded machine does not blur
+  p99   pose latency p99 from `mocapctl bench` (capture to pose on the wire), with no browser and
+        with BROWSERS of them
+It reports the medians over the runs and every run's figures.
+
+A browser is, by default, a client that asks what the page asks, at the page's pace (server/web/
+view.js): the pose event stream, each camera's JPEG again 200 ms after the last one arrived, the
+status every second. It costs the daemon what a page costs, without a browser's own rendering
+competing for the cores. --chromium opens real pages instead (headless Chromium, software WebGL):
+one browser process, one tab per browser.
+Usage: tests/bench/web_cost.py BIN_DIR [--seconds 20] [--runs 3] [--browsers 5] [--chromium]
+                               [--config FILE]
+"""
+import argparse
+import http.client
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+import yaml
+
+WALK = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "deploy",
+                                    "configs", "fake-walk.yaml"))
+
+SETTLE_S = 5  # a new daemon's tracker finds the subject; a new page loads
+
+
+def free_ports():
+    """Two ports free now, for the daemon's gRPC and web listeners."""
+    sockets = [socket.socket() for _ in range(2)]
+    for s in sockets:
+        s.bind(("127.0.0.1", 0))
+    ports = [s.getsockname()[1] for s in sockets]
+    for s in sockets:
+        s.close()
+    return ports
+
+
+def daemon_config(path, grpc_port, web_port):
+    """The configuration at `path` on these loopback ports, its motion path made absolute."""
+    with open(path) as given:
+        config = yaml.safe_load(given)
+    if "scene_motion" in config:
+        config["scene_motion"] = os.path.normpath(os.path.join(os.path.dirname(path), config["scene_motion"]))
+    config.update(listen=f"127.0.0.1:{grpc_port}", log_level="warning",
+                  web={"listen": f"127.0.0.1:{web_port}"})
+    return yaml.safe_dump(config)
+
+
+def cpu_seconds(stat_path):
+    with open(stat_path) as stat:
+        name, fields = stat.read().split(" (", 1)[1].rsplit(") ", 1)
+    fields = fields.split()
+    return name, (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime, stime
+
+
+def web_cpu_seconds(pid):
+    """The CPU of the threads named mocapd-web: the view's server, all its requests and streams."""
+    total = 0.0
+    for task in os.listdir(f"/proc/{pid}/task"):
+        try:
+            name, seconds = cpu_seconds(f"/proc/{pid}/task/{task}/stat")
+        except OSError:
+            continue  # a thread that ended
+        total += seconds if name == "mocapd-web" else 0
+    return total
+
+
+def cpu_percent(pid, seconds):
+    """The daemon's CPU and its web threads' over `seconds`, in % of one core."""
+    start = time.monotonic()
+    total, web = cpu_seconds(f"/proc/{pid}/stat")[1], web_cpu_seconds(pid)
+    time.sleep(seconds)
+    elapsed = time.monotonic() - start
+    return (100 * (cpu_seconds(f"/proc/{pid}/stat")[1] - total) / elapsed,
+            100 * (web_cpu_seconds(pid) - web) / elapsed)
+
+
+def bench_p99(bin_dir, port, seconds):
+    result = subprocess.run([os.path.join(bin_dir, "mocapctl"), "bench", "--seconds", str(seconds),
+                             "--server", f"127.0.0.1:{port}"], capture_output=True, text=True, check=True)
+    return json.loads(result.stdout)["latency_ms"]["p99"]
+
+
+class PageLikeClient:
+    """One browser's requests, as server/web/view.js makes them, on its own threads."""
+
+    def __init__(self, port, cameras):
+        self.port, self.stopping = port, threading.Event()
+        self.threads = [threading.Thread(target=self.poses, daemon=True),
+                        threading.Thread(target=self.status, daemon=True)]
+        self.threads += [threading.Thread(target=self.images, args=(c,), daemon=True) for c in range(cameras)]
+        for thread in self.threads:
+            thread.start()
+
+    def poses(self):
+        connection = http.client.HTTPConnection("127.0.0.1", self.port, timeout=5)
+        connection.request("GET", "/api/poses")
+        response = connection.getresponse()
+        while not self.stopping.is_set() and response.readline():
+            pass
+        connection.close()
+
+    def repeat(self, path, pause_s):
+        connection = http.client.HTTPConnection("127.0.0.1", self.port, timeout=5)
+        while not self.stopping.is_set():
+            try:
+                connection.request("GET", path)
+                connection.getresponse().read()
+            except (OSError, http.client.HTTPException):
+                connection.close()  # the server closed an idle keep-alive: reconnect
+            self.stopping.wait(pause_s)
+        connection.close()
+
+    def images(self, camera):
+        self.repeat(f"/api/camera/{camera}.jpg", 0.2)
+
+    def status(self):
+        self.repeat("/api/status", 1.0)
+
+    def stop(self):
+        self.stopping.set()
+        for thread in self.threads:
+            thread.join()
+
+
+class ChromiumPages:
+    """Real pages: one headless Chromium with a tab per browser, each loading the view."""
+
+    def __init__(self, port, count, work):
+        url = f"http://127.0.0.1:{port}/"
+        self.process = subprocess.Popen(
+            ["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+             "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+             f"--user-data-dir={work}/profile-{port}", "--remote-debugging-port=0", *([url] * count)],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+
+    def stop(self):
+        self.process.terminate()
+        self.process.wait()
+
+
+def open_browsers(args, port, count, work):
+    if args.chromium:
+        return ChromiumPages(port, count, work)
+    clients = [PageLikeClient(port, 2) for _ in range(count)]
+
+    class Group:
+        def stop(self):
+            for client in clients:
+                client.stop()
+    return Group()
+
+
+def one_run(args, work, run):
+    grpc_port, web_port = free_ports()
+    config = os.path.join(work, "web-cost.yaml")
+    with open(config, "w") as out:
+        out.write(daemon_config(args.config, grpc_port, web_port))
+    daemon = subprocess.Popen([os.path.join(args.bin_dir, "mocapd"), "--config", config])
+    figures = {}
+    try:
+        time.sleep(SETTLE_S)
+        # Even runs measure without browsers first, odd runs with them first.
+        for with_browsers in ([False, True] if run % 2 == 0 else [True, False]):
+            if not with_browsers:
+                figures["cpu_percent_none"], figures["web_threads_cpu_percent_none"] = cpu_percent(
+                    daemon.pid, args.seconds)
+                figures["p99_ms_none"] = bench_p99(args.bin_dir, grpc_port, args.seconds)
+                continue
+            one = open_browsers(args, web_port, 1, work)
+            time.sleep(SETTLE_S)
+            figures["cpu_percent_one_browser"], figures["web_threads_cpu_percent_one_browser"] = \
+                cpu_percent(daemon.pid, args.seconds)
+            one.stop()
+            many = open_browsers(args, web_port, args.browsers, work)
+            time.sleep(SETTLE_S)
+            figures["p99_ms_browsers"] = bench_p99(args.bin_dir, grpc_port, args.seconds)
+            many.stop()
+    finally:
+        daemon.terminate()
+        daemon.wait()
+    figures["view_cpu_percent"] = figures["cpu_percent_one_browser"] - figures["cpu_percent_none"]
+    figures["p99_ms_difference"] = figures["p99_ms_browsers"] - figures["p99_ms_none"]
+    return figures
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("bin_dir")
+    parser.add_argument("--seconds", type=int, default=20)
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--browsers", type=int, default=5)
+    parser.add_argument("--chromium", action="store_true", help="real headless Chromium pages")
+    parser.add_argument("--config", default=WALK, help="the daemon's configuration (default: the fake walk)")
+    args = parser.parse_args()
+    runs = []
+    with tempfile.TemporaryDirectory(prefix="web_cost_") as work:
+        for run in range(args.runs):
+            runs.append(one_run(args, work, run))
+            print(f"run {run}: {json.dumps(runs[-1])}", file=sys.stderr)
+    median = {key: statistics.median(r[key] for r in runs) for key in runs[0]}
+    print(json.dumps({"config": os.path.basename(args.config), "seconds": args.seconds, "runs": args.runs, "browsers": args.browsers,
+                      "clients": "chromium" if args.chromium else "page-like", "cores": os.cpu_count(),
+                      "load_average": os.getloadavg(), "median": median, "all_runs": runs}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
