@@ -216,9 +216,11 @@ def main():
             runs.append(one_run(args, work, run))
             print(f"run {run}: {json.dumps(runs[-1])}", file=sys.stderr)
     median = {key: statistics.median(r[key] for r in runs) for key in runs[0]}
-    print(json.dumps({"config": os.path.basename(args.config), "seconds": args.seconds, "runs": args.runs, "browsers": args.browsers,
-                      "clients": "chromium" if args.chromium else "page-like", "cores": os.cpu_count(),
-                      "load_average": os.getloadavg(), "median": median, "all_runs": runs}, indent=2))
+    print(json.dumps({"config": os.path.basename(args.config), "seconds": args.seconds,
+                      "runs": args.runs, "browsers": args.browsers,
+                      "clients": "chromium" if args.chromium else "page-like",
+                      "cores": os.cpu_count(), "load_average": os.getloadavg(),
+                      "median": median, "all_runs": runs}, indent=2))
 
 
 if __name__ == "__main__":
