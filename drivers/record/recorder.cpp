@@ -5,6 +5,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -15,6 +16,7 @@
 #include <future>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "drivers/clock.h"
 
@@ -69,7 +71,15 @@ Status writeFileAtomically(const fs::path& path, const std::string& content) {
   return Status::Ok();
 }
 
+std::string megabytes(uint64_t bytes) { return std::to_string(bytes / 1'000'000) + " MB"; }
+
 }  // namespace
+
+Expected<uint64_t> freeBytesAt(const fs::path& path) {
+  struct statvfs info {};
+  if (::statvfs(path.c_str(), &info) != 0) return Status::Error(errnoText("cannot statvfs", path.string()));
+  return static_cast<uint64_t>(info.f_bavail) * info.f_frsize;
+}
 
 Expected<fs::path> resolveInsideRoot(const fs::path& root, const fs::path& dir) {
   std::error_code error;
@@ -113,6 +123,7 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   }
   Expected<fs::path> resolved = resolveInsideRoot(root_, dir);
   if (!resolved.ok()) return Status::Error("recorder: " + resolved.error());
+  if (Status room = checkFreeSpace(); !room.ok()) return room;
   const fs::path session = resolved.value();
   std::error_code error;
   if (fs::exists(session, error)) {
@@ -133,6 +144,7 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   manifest.body_model_file = tracking.body ? kBodyModelFile : "";
   manifest.truth_body_model_file = tracking.truth_body ? kTruthBodyModelFile : "";
   manifest.tracker_settings = tracking.tracker_settings;
+  manifest.images = options_.images;
   manifest.cameras = cameras;
   if (!rig.empty()) {
     try {
@@ -204,6 +216,8 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   cameras_ = cameras;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    silhouettes_.clear();
+    silhouettes_.resize(cameras.size());
     stats_ = {};
     queue_.clear();
     background_queue_.clear();
@@ -215,10 +229,26 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   return Status::Ok();
 }
 
+Status Recorder::checkFreeSpace() const {
+  if (options_.min_free_bytes == 0) return Status::Ok();
+  const fs::path where = session_.empty() ? root_ : session_;
+  const Expected<uint64_t> free = options_.free_space ? options_.free_space(where) : freeBytesAt(where);
+  if (!free.ok()) return Status::Error("recorder: " + free.error());
+  if (free.value() >= options_.min_free_bytes) return Status::Ok();
+  return Status::Error("recorder: " + megabytes(free.value()) + " free on the file system of " +
+                       where.string() + ", under the floor of " +
+                       megabytes(options_.min_free_bytes) + " (recording.min_free_mb)");
+}
+
+bool Recorder::stopped() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return !stats_.stopped.empty();
+}
+
 void Recorder::write(const FrameSet& set, SetTruth truth) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!writer_.joinable() || closing_) return;
+    if (!writer_.joinable() || closing_ || !stats_.stopped.empty()) return;
     ++stats_.sets_received;
     // Drop the newest rather than block: the pipeline's latency matters more than the recording,
     // and the queued sets are already in time order.
@@ -235,7 +265,11 @@ void Recorder::writeBackground(int camera, uint64_t from_sequence,
                                std::shared_ptr<const BackgroundModel> background) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!writer_.joinable() || closing_) return;
+    if (!writer_.joinable() || closing_ || !stats_.stopped.empty()) return;
+    if (camera >= 0 && static_cast<std::size_t>(camera) < silhouettes_.size())
+      silhouettes_[camera].noted.emplace_back(from_sequence, background);
+    // Without images a background extracts nothing at replay: the silhouettes are the record.
+    if (options_.images == ImageMode::kNone) return;
     background_queue_.push_back({{from_sequence, camera, ""}, std::move(background)});
   }
   backgrounds_queued_.notify_one();
@@ -253,7 +287,7 @@ bool Recorder::nextJob(std::deque<Job>& queue, std::condition_variable& queued, 
 
 void Recorder::backgroundWriterLoop() {
   BackgroundJob job;
-  while (nextJob(background_queue_, backgrounds_queued_, job))
+  while (nextJob(background_queue_, backgrounds_queued_, job) && !stopped())
     storeBackground(job.record, job.model.get());
 }
 
@@ -309,6 +343,13 @@ RecorderStats Recorder::stats() const {
 void Recorder::writerLoop() {
   QueuedSet queued;
   while (nextJob(queue_, queued_, queued)) {
+    // Checked before each set, so a set is either written whole or not begun.
+    if (Status room = checkFreeSpace(); !room.ok()) stop(room.message());
+    if (stopped()) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++stats_.sets_discarded;
+      break;
+    }
     if (writeSet(queued)) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.sets_written;
@@ -317,6 +358,11 @@ void Recorder::writerLoop() {
       syncIndexes();
     }
   }
+  // Once stopped, the sets still queued are never written: a full or failing disk would only
+  // lose them midway.
+  std::lock_guard<std::mutex> lock(mutex_);
+  stats_.sets_discarded += queue_.size();
+  queue_.clear();
 }
 
 bool Recorder::writeSet(const QueuedSet& queued) {
@@ -334,31 +380,42 @@ bool Recorder::writeSet(const QueuedSet& queued) {
     }
     accepted.push_back(static_cast<int>(c));
   }
-  // PNG encoding is the bottleneck (libpng's row filtering alone takes tens of ms for a noisy
-  // 780x580 BGR frame): the cameras of a set are encoded in parallel, the first on this thread.
-  std::vector<std::vector<uint8_t>> encoded(accepted.size());
-  std::vector<std::future<bool>> helpers;
-  const auto encode = [&](std::size_t k) {
-    return encodePng(set.frames[accepted[k]]->image, options_.png_compression, encoded[k]);
-  };
-  for (std::size_t k = 1; k < accepted.size(); ++k) helpers.push_back(std::async(std::launch::async, encode, k));
-  bool encoded_all = accepted.empty() || encode(0);
-  for (std::future<bool>& helper : helpers) encoded_all = helper.get() && encoded_all;
-  if (!encoded_all) fail("cannot encode a PNG of set " + std::to_string(set.sequence));
-  std::vector<std::pair<int, IndexRecord>> records;
-  for (std::size_t k = 0; encoded_all && k < accepted.size(); ++k) {
-    const int c = accepted[k];
-    const Frame& frame = *set.frames[c];
-    IndexRecord record{set.sequence, frame.sequence, frame.timestamp_ns, frame.dropped_before, frame.corrupt, ""};
-    if (!writeImage(c, encoded[k], record.file)) return false;
-    present[c] = '1';
-    records.emplace_back(c, std::move(record));
-  }
   if (rejected > 0) {
     std::lock_guard<std::mutex> lock(mutex_);
     stats_.frames_rejected += rejected;
   }
-  if (records.empty()) return false;
+  if (accepted.empty()) return false;
+  // Extraction and encoding are the bottleneck (libpng's row filtering alone takes tens of ms
+  // for a noisy 780x580 BGR frame): the cameras of a set are done in parallel, the first on this
+  // thread.
+  std::vector<EncodedFrame> encoded(accepted.size());
+  std::vector<std::future<bool>> helpers;
+  const auto encode = [&](std::size_t k) {
+    return encodeFrame(accepted[k], *set.frames[accepted[k]], encoded[k]);
+  };
+  for (std::size_t k = 1; k < accepted.size(); ++k) helpers.push_back(std::async(std::launch::async, encode, k));
+  bool encoded_all = encode(0);
+  for (std::future<bool>& helper : helpers) encoded_all = helper.get() && encoded_all;
+  if (!encoded_all) {
+    fail("cannot encode the images of set " + std::to_string(set.sequence));
+    return false;
+  }
+  std::vector<std::pair<int, IndexRecord>> records;
+  for (std::size_t k = 0; k < accepted.size(); ++k) {
+    const int c = accepted[k];
+    const Frame& frame = *set.frames[c];
+    IndexRecord record{set.sequence, frame.sequence, frame.timestamp_ns, frame.dropped_before, frame.corrupt, "", ""};
+    char number[24];
+    std::snprintf(number, sizeof number, "%06llu", static_cast<unsigned long long>(files_[c].next_image));
+    if (!encoded[k].image.empty()) record.file = number + std::string(imageExtension(options_.images));
+    if (!encoded[k].silhouette.empty()) record.silhouette = number + std::string("_silhouette.png");
+    if ((!record.file.empty() && !writeFile(c, record.file, encoded[k].image)) ||
+        (!record.silhouette.empty() && !writeFile(c, record.silhouette, encoded[k].silhouette)))
+      return false;
+    ++files_[c].next_image;
+    present[c] = '1';
+    records.emplace_back(c, std::move(record));
+  }
   if (options_.durability == Durability::kPowerLoss) {
     // The renames must be on disk before any index line that names them.
     for (const auto& [camera, record] : records) {
@@ -381,49 +438,91 @@ bool Recorder::writeSet(const QueuedSet& queued) {
     fail(errnoText("cannot append to", (session_ / kSetsFile).string()));
     return false;
   }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.frames_written += records.size();
+  }
   const Eigen::VectorXd& dofs = queued.truth.dofs;
   if (truth_fd_ >= 0 && dofs.size() == static_cast<long>(truth_dof_count_)) {
     const std::string truth =
         formatTruthLine({queued.truth.frame_sequence,
                          std::vector<double>(dofs.data(), dofs.data() + dofs.size())}) +
         "\n";
-    if (!writeAll(truth_fd_, truth.data(), truth.size())) {
+    // The set is committed either way: a failure here stops the recording after it.
+    if (!writeAll(truth_fd_, truth.data(), truth.size()))
       fail(errnoText("cannot append to", (session_ / kTruthFile).string()));
-      return false;
-    }
   }
-  std::lock_guard<std::mutex> lock(mutex_);
-  stats_.frames_written += records.size();
   return true;
 }
 
-bool Recorder::writeImage(int camera, const std::vector<uint8_t>& png, std::string& file_name) {
+bool Recorder::encodeFrame(int camera, const Frame& frame, EncodedFrame& encoded) {
+  const cv::Mat silhouette = extractSilhouette(camera, frame);
+  if (!silhouette.empty() && !encodePng(silhouette, options_.png_compression, encoded.silhouette))
+    return false;
+  switch (options_.images) {
+    case ImageMode::kLossless:
+      return encodePng(frame.image, options_.png_compression, encoded.image);
+    case ImageMode::kCompressed:
+      return cv::imencode(".jpg", frame.image, encoded.image,
+                          {cv::IMWRITE_JPEG_QUALITY, options_.jpeg_quality});
+    case ImageMode::kNone: return true;
+  }
+  return false;
+}
+
+cv::Mat Recorder::extractSilhouette(int camera, const Frame& frame) {
+  CameraSilhouettes& state = silhouettes_[camera];
+  std::shared_ptr<const BackgroundModel> reached;
+  bool changed = false;
+  {
+    // The backgrounds noted for this frame on: the mask thread notes them in frame order.
+    std::lock_guard<std::mutex> lock(mutex_);
+    while (!state.noted.empty() && state.noted.front().first <= frame.sequence) {
+      reached = std::move(state.noted.front().second);
+      state.noted.pop_front();
+      changed = true;
+    }
+  }
+  if (changed) {
+    state.extractor.reset();
+    try {
+      // As a replay would: a fresh extractor per background, adapting over the recorded frames.
+      if (reached) state.extractor = std::make_unique<SilhouetteExtractor>(*reached);
+    } catch (const std::invalid_argument&) {
+      // A background the extractor cannot use: no silhouettes, as the live daemon has none.
+    }
+  }
+  if (state.extractor) {
+    if (!state.extractor->extract(frame.image)) return {};
+    return state.extractor->silhouette().toMat();
+  }
+  if (!options_.threshold_without_background) return {};
+  cv::Mat gray = frame.image, silhouette;
+  if (gray.channels() == 3) cv::cvtColor(frame.image, gray, cv::COLOR_BGR2GRAY);
+  cv::threshold(gray, silhouette, 127, 255, cv::THRESH_BINARY);
+  return silhouette;
+}
+
+bool Recorder::writeFile(int camera, const std::string& name, const std::vector<uint8_t>& bytes) {
   CameraFiles& files = files_[camera];
-  char name[32];
-  std::snprintf(name, sizeof name, "%06llu.png", static_cast<unsigned long long>(files.next_image));
-  const std::string temp = std::string(".") + name + ".tmp";
+  const std::string temp = "." + name + ".tmp";
   const std::string shown = (session_ / cameraDirectoryName(camera) / name).string();
   const int fd = ::openat(files.dir_fd, temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) {
     fail(errnoText("cannot create", shown));
     return false;
   }
-  bool ok = writeAll(fd, png.data(), png.size());
+  bool ok = writeAll(fd, bytes.data(), bytes.size());
   if (ok && options_.durability == Durability::kPowerLoss) ok = ::fdatasync(fd) == 0;
   if (!ok) fail(errnoText("cannot write", shown));
   ::close(fd);
-  // Renamed only when whole: a reader never sees a partial image under its final name.
-  if (ok && ::renameat(files.dir_fd, temp.c_str(), files.dir_fd, name) != 0) {
+  // Renamed only when whole: a reader never sees a partial file under its final name.
+  if (ok && ::renameat(files.dir_fd, temp.c_str(), files.dir_fd, name.c_str()) != 0) {
     fail(errnoText("cannot rename into", shown));
     ok = false;
   }
-  if (!ok) {
-    ::unlinkat(files.dir_fd, temp.c_str(), 0);
-    return false;
-  }
-  ++files.next_image;
-  file_name = name;
-  return true;
+  if (!ok) ::unlinkat(files.dir_fd, temp.c_str(), 0);
+  return ok;
 }
 
 void Recorder::syncIndexes() {
@@ -437,9 +536,17 @@ void Recorder::syncIndexes() {
 }
 
 void Recorder::fail(const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++stats_.write_errors;
+    stats_.last_error = message;
+  }
+  stop(message);
+}
+
+void Recorder::stop(const std::string& why) {
   std::lock_guard<std::mutex> lock(mutex_);
-  ++stats_.write_errors;
-  stats_.last_error = message;
+  if (stats_.stopped.empty()) stats_.stopped = why;
 }
 
 void Recorder::closeFiles() {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -20,6 +21,7 @@
 #include "tracker/model/body_model.h"
 #include "tracker/model/camera.h"
 #include "tracker/vision/background_model.h"
+#include "tracker/vision/silhouette_extractor.h"
 
 namespace mocap {
 
@@ -39,7 +41,21 @@ struct RecorderOptions {
   // zlib level with the run-length strategy: as fast as storing uncompressed (libpng's filtering
   // dominates), and about 40 % of the raw size on the fake scene's noisy frames.
   int png_compression = 1;
+  ImageMode images = ImageMode::kLossless;
+  int jpeg_quality = 90;  // images: compressed (1-100)
+  // A frame with no background is stored with the thresholded silhouette (the daemon's
+  // `before_background: threshold`) instead of none.
+  bool threshold_without_background = false;
+  // The recording refuses to start, and stops once running, when the file system holding the
+  // session has fewer free bytes than this (0: no floor).
+  uint64_t min_free_bytes = 0;
+  // The free bytes of the file system holding a path (unprivileged users' share); null: statvfs.
+  // A seam for tests, which cannot fill a disk.
+  std::function<Expected<uint64_t>(const std::filesystem::path&)> free_space = nullptr;
 };
+
+// The free bytes for unprivileged users of the file system holding `path` (statvfs).
+Expected<uint64_t> freeBytesAt(const std::filesystem::path& path);
 
 struct RecorderStats {
   uint64_t sets_received = 0;
@@ -47,8 +63,12 @@ struct RecorderStats {
   uint64_t sets_dropped = 0;     // queue full: the disk could not keep up
   uint64_t frames_written = 0;
   uint64_t frames_rejected = 0;  // wrong size or type for its camera, or a camera outside the session
-  uint64_t write_errors = 0;     // sets lost to an I/O error (see last_error)
+  uint64_t write_errors = 0;     // I/O errors (see last_error); the first stops the recording
   std::string last_error;
+  // Why the recording stopped on its own (free space under the floor, an I/O error): sets
+  // are no longer taken, the session holds every set committed before. Empty while it runs.
+  std::string stopped;
+  uint64_t sets_discarded = 0;  // queued when it stopped on its own, never written
 };
 
 // What the session was tracked with while it was recorded.
@@ -87,9 +107,14 @@ class Recorder {
   Status open(const std::filesystem::path& dir, const Rig& rig, const std::vector<SessionCamera>& cameras,
               const SessionTracking& tracking = {});
 
+  // Fails unless the file system holding the recording root (the session once open) has at least
+  // options.min_free_bytes free; the message says how much it has.
+  Status checkFreeSpace() const;
+
   // Queues a set (pixels shared, not copied), with its true pose if the session stores the truth.
-  // Never blocks on the disk: drops the set when the queue is full. Frames are matched to cameras
-  // by their index in FrameSet::frames.
+  // Never blocks on the disk: drops the set when the queue is full, ignores it once stopped.
+  // Frames are matched to cameras by their index in FrameSet::frames. Each frame's silhouette is
+  // extracted on the writer's threads against the camera's background (writeBackground).
   void write(const FrameSet& set, SetTruth truth = {});
 
   // Records that `camera`'s frames from camera_sequence `from_sequence` on are extracted against
@@ -103,6 +128,8 @@ class Recorder {
   Status close();
 
   bool isOpen() const { return writer_.joinable(); }
+  // Stopped on its own (see RecorderStats::stopped): close() it.
+  bool stopped() const;
   const std::filesystem::path& sessionPath() const { return session_; }
   RecorderStats stats() const;
 
@@ -111,6 +138,17 @@ class Recorder {
     int dir_fd = -1;
     int index_fd = -1;
     uint64_t next_image = 0;
+  };
+  // A camera's silhouette extraction, on the writer's threads: the backgrounds noted and not yet
+  // reached (under mutex_), and the extractor of the one in use (null: none).
+  struct CameraSilhouettes {
+    std::deque<std::pair<uint64_t, std::shared_ptr<const BackgroundModel>>> noted;
+    std::unique_ptr<SilhouetteExtractor> extractor;
+  };
+  // One frame's encoded files.
+  struct EncodedFrame {
+    std::vector<uint8_t> image;       // empty with images: none
+    std::vector<uint8_t> silhouette;  // empty: none stored
   };
   struct BackgroundJob {
     BackgroundRecord record;
@@ -129,12 +167,20 @@ class Recorder {
     FrameSet set;
     SetTruth truth;
   };
-  // Writes one set: images, then index lines, then the commit line, then its truth line; false
-  // on an I/O error.
+  // Writes one set: images and silhouettes, then index lines, then the commit line, then its
+  // truth line; false if the set was not committed.
   bool writeSet(const QueuedSet& queued);
-  bool writeImage(int camera, const std::vector<uint8_t>& png, std::string& file_name);
+  // Extracts camera's silhouette of `frame` and encodes what the session keeps of it.
+  bool encodeFrame(int camera, const Frame& frame, EncodedFrame& encoded);
+  // The silhouette of camera's `frame` against its background then; empty if it has none.
+  cv::Mat extractSilhouette(int camera, const Frame& frame);
+  // Writes a file of the camera's directory under a temporary name, then renames it.
+  bool writeFile(int camera, const std::string& name, const std::vector<uint8_t>& bytes);
   void syncIndexes();
+  // Counts an I/O error; the first stops the recording.
   void fail(const std::string& message);
+  // Stops taking sets, for `why`; the writer ends after the set it is writing.
+  void stop(const std::string& why);
   void closeFiles();
 
   const std::filesystem::path root_;
@@ -142,6 +188,7 @@ class Recorder {
   std::filesystem::path session_;
   std::vector<SessionCamera> cameras_;
   std::vector<CameraFiles> files_;
+  std::vector<CameraSilhouettes> silhouettes_;
   int sets_fd_ = -1;
   int backgrounds_fd_ = -1;
   int truth_fd_ = -1;  // -1: no truth stored

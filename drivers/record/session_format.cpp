@@ -59,6 +59,25 @@ bool isPlainFileName(const std::string& name) {
 
 std::string cameraDirectoryName(int camera) { return "cam" + std::to_string(camera); }
 
+const char* imageModeName(ImageMode mode) {
+  switch (mode) {
+    case ImageMode::kLossless: return "lossless";
+    case ImageMode::kCompressed: return "compressed";
+    case ImageMode::kNone: return "none";
+  }
+  return "lossless";
+}
+
+std::optional<ImageMode> parseImageMode(const std::string& name) {
+  for (ImageMode mode : {ImageMode::kLossless, ImageMode::kCompressed, ImageMode::kNone})
+    if (name == imageModeName(mode)) return mode;
+  return std::nullopt;
+}
+
+const char* imageExtension(ImageMode mode) {
+  return mode == ImageMode::kCompressed ? ".jpg" : ".png";
+}
+
 int cvTypeOfPixelFormat(const std::string& pixel_format) {
   if (pixel_format == kPixelGray) return CV_8UC1;
   if (pixel_format == kPixelBgr) return CV_8UC3;
@@ -68,15 +87,17 @@ int cvTypeOfPixelFormat(const std::string& pixel_format) {
 std::string formatIndexLine(const IndexRecord& r) {
   return std::to_string(r.set_sequence) + "," + std::to_string(r.camera_sequence) + "," +
          std::to_string(r.timestamp_ns) + "," + std::to_string(r.dropped_before) + "," +
-         (r.corrupt ? "1" : "0") + "," + r.file;
+         (r.corrupt ? "1" : "0") + "," + r.file + "," + r.silhouette;
 }
 
 std::string formatSetLine(const SetRecord& r) {
   return std::to_string(r.set_sequence) + "," + std::to_string(r.timestamp_ns) + "," + r.present;
 }
 
-Expected<IndexRecord> parseIndexLine(const std::string& line) {
-  Expected<std::vector<std::string>> split = columns(line, 6, kIndexHeader);
+Expected<IndexRecord> parseIndexLine(const std::string& line, int format_version) {
+  const bool v1 = format_version == 1;
+  Expected<std::vector<std::string>> split =
+      columns(line, v1 ? 6 : 7, v1 ? kIndexHeaderV1 : kIndexHeader);
   if (!split.ok()) return Status::Error(split.error());
   const std::vector<std::string>& c = split.value();
   IndexRecord r;
@@ -85,8 +106,13 @@ Expected<IndexRecord> parseIndexLine(const std::string& line) {
   if (!parseNumber(c[2], r.timestamp_ns)) return Status::Error("timestamp_ns '" + c[2] + "' is not a number");
   if (!parseNumber(c[3], r.dropped_before)) return Status::Error("dropped_before '" + c[3] + "' is not a number");
   if (!parseFlag(c[4], r.corrupt)) return Status::Error("corrupt '" + c[4] + "' is not 0 or 1");
-  if (!isPlainFileName(c[5])) return Status::Error("file '" + c[5] + "' is not a file name in the camera directory");
+  // Empty in a session without images; the reader checks that against the manifest.
+  if ((v1 || !c[5].empty()) && !isPlainFileName(c[5]))
+    return Status::Error("file '" + c[5] + "' is not a file name in the camera directory");
   r.file = c[5];
+  if (!v1 && !c[6].empty() && !isPlainFileName(c[6]))
+    return Status::Error("silhouette '" + c[6] + "' is not a file name in the camera directory");
+  if (!v1) r.silhouette = c[6];
   return r;
 }
 
@@ -169,6 +195,7 @@ std::string emitManifest(const SessionManifest& m) {
   out << YAML::Key << "start_time_utc" << YAML::Value << m.start_time_utc;
   out << YAML::Key << "start_monotonic_ns" << YAML::Value << m.start_monotonic_ns;
   out << YAML::Key << "calibration" << YAML::Value << m.calibration_file;
+  out << YAML::Key << "images" << YAML::Value << imageModeName(m.images);
   if (!m.body_model_file.empty()) out << YAML::Key << "body_model" << YAML::Value << m.body_model_file;
   if (!m.truth_body_model_file.empty())
     out << YAML::Key << "truth_body_model" << YAML::Value << m.truth_body_model_file;
@@ -214,8 +241,9 @@ Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std:
     return Status::Ok();
   };
   if (Status s = scalar(root["format_version"], "format_version", m.format_version); !s.ok()) return s;
-  if (m.format_version != kSessionFormatVersion) {
-    return fail("format_version", std::to_string(m.format_version) + " is not supported (this build reads " +
+  if (m.format_version < 1 || m.format_version > kSessionFormatVersion) {
+    return fail("format_version", std::to_string(m.format_version) +
+                                      " is not supported (this build reads 1 to " +
                                       std::to_string(kSessionFormatVersion) + ")");
   }
   if (Status s = scalar(root["software_version"], "software_version", m.software_version); !s.ok()) return s;
@@ -224,6 +252,16 @@ Expected<SessionManifest> parseManifest(const std::string& yaml_text, const std:
   if (Status s = scalar(root["calibration"], "calibration", m.calibration_file); !s.ok()) return s;
   if (m.calibration_file.find('/') != std::string::npos || m.calibration_file == "..") {
     return fail("calibration", "'" + m.calibration_file + "' is not a file name in the session");
+  }
+  // Format 1 sessions have none: they are lossless.
+  if (root["images"]) {
+    std::string name;
+    if (Status s = scalar(root["images"], "images", name); !s.ok()) return s;
+    const std::optional<ImageMode> mode = parseImageMode(name);
+    if (!mode) return fail("images", "'" + name + "' is not lossless, compressed or none");
+    if (m.format_version == 1 && *mode != ImageMode::kLossless)
+      return fail("images", "format 1 sessions are lossless");
+    m.images = *mode;
   }
   // Optional: sessions recorded before the body model was stored have none.
   if (root["body_model"]) {

@@ -1,6 +1,7 @@
 // The session reader: manifest, calibration, index and commit files, image checks.
 #include "drivers/record/session_reader.h"
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <fstream>
@@ -9,6 +10,7 @@
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace mocap {
 namespace fs = std::filesystem;
@@ -197,10 +199,12 @@ Status SessionReader::load(const SessionReadOptions& options) {
   std::vector<std::map<uint64_t, IndexRecord>> records(camera_count);
   for (std::size_t c = 0; c < camera_count; ++c) {
     const fs::path index_path = dir_ / cameraDirectoryName(static_cast<int>(c)) / kIndexFile;
-    Expected<CsvFile> index = readCsv(index_path, kIndexHeader, notes_);
+    const int version = manifest_.format_version;
+    Expected<CsvFile> index =
+        readCsv(index_path, version == 1 ? kIndexHeaderV1 : kIndexHeader, notes_);
     if (!index.ok()) return Status::Error(index.error());
     for (const auto& [number, line] : index.value().lines) {
-      Expected<IndexRecord> record = parseIndexLine(line);
+      Expected<IndexRecord> record = parseIndexLine(line, version);
       const std::string where = index_path.string() + ":" + std::to_string(number) + ": ";
       if (!record.ok()) return Status::Error(where + record.error());
       const uint64_t set_sequence = record.value().set_sequence;
@@ -249,27 +253,12 @@ Status SessionReader::load(const SessionReadOptions& options) {
   return Status::Ok();
 }
 
-Status SessionReader::checkImage(int camera, const IndexRecord& record, bool decode) const {
-  const fs::path path = imagePath(camera, record);
-  const std::string where = path.string() + ": " + describeFrame(camera, record) + ": ";
-  std::vector<uint8_t> bytes;
-  std::error_code error;
-  const auto size = fs::file_size(path, error);
-  if (error) return Status::Error(where + "image missing (" + error.message() + ")");
-  const SessionCamera& cam = manifest_.cameras[camera];
-  if (decode) {
-    if (!readBytes(path, bytes)) return Status::Error(where + "image unreadable");
-    const cv::Mat image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
-    if (image.empty()) return Status::Error(where + "not a decodable PNG");
-    if (image.cols != cam.width || image.rows != cam.height || image.type() != cvTypeOfPixelFormat(cam.pixel_format)) {
-      return Status::Error(where + "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-                           " with " + std::to_string(image.channels()) + " channels, the manifest says " +
-                           std::to_string(cam.width) + "x" + std::to_string(cam.height) + " " + cam.pixel_format);
-    }
-    return Status::Ok();
-  }
-  // Cheap checks without decoding: the signature, the IHDR (size, 8-bit gray or RGB) and the
-  // closing IEND chunk, which a file cut short lacks.
+namespace {
+
+// Cheap checks without decoding: the signature, the IHDR (size, 8-bit, colour type) and the
+// closing IEND chunk, which a file cut short lacks. `color_type`: 0 gray, 2 RGB.
+Status checkPngFile(const fs::path& path, const std::string& where, int width, int height,
+                    int color_type, uintmax_t size) {
   static constexpr std::array<uint8_t, 8> kSignature{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   static constexpr std::array<uint8_t, 12> kEnd{0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
   if (size < 33 + kEnd.size()) return Status::Error(where + "truncated PNG (" + std::to_string(size) + " bytes)");
@@ -284,22 +273,117 @@ Status SessionReader::checkImage(int camera, const IndexRecord& record, bool dec
     return Status::Error(where + "not a PNG file");
   }
   if (tail != kEnd) return Status::Error(where + "truncated PNG (no IEND chunk)");
-  const uint32_t width = bigEndian32(head.data() + 16);
-  const uint32_t height = bigEndian32(head.data() + 20);
+  const uint32_t png_width = bigEndian32(head.data() + 16);
+  const uint32_t png_height = bigEndian32(head.data() + 20);
   const int bit_depth = head[24];
-  const int color_type = head[25];
-  const int expected_color = cvTypeOfPixelFormat(cam.pixel_format) == CV_8UC1 ? 0 : 2;
-  if (static_cast<int>(width) != cam.width || static_cast<int>(height) != cam.height || bit_depth != 8 ||
-      color_type != expected_color) {
-    return Status::Error(where + "PNG is " + std::to_string(width) + "x" + std::to_string(height) + " depth " +
-                         std::to_string(bit_depth) + " colour type " + std::to_string(color_type) +
-                         ", the manifest says " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
-                         " " + cam.pixel_format);
+  const int png_color = head[25];
+  if (static_cast<int>(png_width) != width || static_cast<int>(png_height) != height || bit_depth != 8 ||
+      png_color != color_type) {
+    return Status::Error(where + "PNG is " + std::to_string(png_width) + "x" + std::to_string(png_height) +
+                         " depth " + std::to_string(bit_depth) + " colour type " + std::to_string(png_color) +
+                         ", expected " + std::to_string(width) + "x" + std::to_string(height) +
+                         " depth 8 colour type " + std::to_string(color_type));
   }
   return Status::Ok();
 }
 
-Expected<Frame> SessionReader::readFrame(std::size_t set_index, int camera) const {
+// Cheap checks of a JPEG without decoding: the start and end markers, and the frame header's
+// size and components, found by walking the marker segments before the scan.
+Status checkJpegFile(const fs::path& path, const std::string& where, int width, int height,
+                     int components, uintmax_t size) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<uint8_t> head(std::min<uintmax_t>(size, 65536));
+  std::array<uint8_t, 2> tail{};
+  in.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(head.size()));
+  if (size >= 4) {
+    in.seekg(-2, std::ios::end);
+    in.read(reinterpret_cast<char*>(tail.data()), tail.size());
+  }
+  if (!in) return Status::Error(where + "image unreadable");
+  if (size < 4 || head[0] != 0xff || head[1] != 0xd8) return Status::Error(where + "not a JPEG file");
+  if (tail[0] != 0xff || tail[1] != 0xd9) return Status::Error(where + "truncated JPEG (no end marker)");
+  for (std::size_t at = 2; at + 4 <= head.size() && head[at] == 0xff;) {
+    const uint8_t marker = head[at + 1];
+    const std::size_t length = (std::size_t{head[at + 2]} << 8) | head[at + 3];
+    const bool frame_header = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
+    if (frame_header && at + 10 <= head.size()) {
+      const int jpeg_height = (head[at + 5] << 8) | head[at + 6];
+      const int jpeg_width = (head[at + 7] << 8) | head[at + 8];
+      if (jpeg_width != width || jpeg_height != height || head[at + 9] != components)
+        return Status::Error(where + "JPEG is " + std::to_string(jpeg_width) + "x" + std::to_string(jpeg_height) +
+                             " with " + std::to_string(head[at + 9]) + " components, expected " +
+                             std::to_string(width) + "x" + std::to_string(height) + " with " +
+                             std::to_string(components));
+      return Status::Ok();
+    }
+    if (marker == 0xda) break;  // the scan: no frame header before it
+    at += 2 + length;
+  }
+  return Status::Error(where + "JPEG without a frame header");
+}
+
+}  // namespace
+
+Status SessionReader::checkImage(int camera, const IndexRecord& record, bool decode) const {
+  const SessionCamera& cam = manifest_.cameras[camera];
+  const bool gray = cvTypeOfPixelFormat(cam.pixel_format) == CV_8UC1;
+  const std::string frame = describeFrame(camera, record) + ": ";
+  const bool has_images = manifest_.images != ImageMode::kNone;
+  if (has_images == record.file.empty())
+    return Status::Error(dir_.string() + ": " + frame +
+                         (has_images ? "no image file, the session keeps images ("
+                                     : "an image file, the session keeps none (") +
+                         imageModeName(manifest_.images) + ")");
+  if (has_images) {
+    const fs::path path = imagePath(camera, record);
+    const std::string where = path.string() + ": " + frame;
+    std::error_code error;
+    const auto size = fs::file_size(path, error);
+    if (error) return Status::Error(where + "image missing (" + error.message() + ")");
+    if (decode) {
+      std::vector<uint8_t> bytes;
+      if (!readBytes(path, bytes)) return Status::Error(where + "image unreadable");
+      const cv::Mat image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+      if (image.empty()) return Status::Error(where + "not a decodable image");
+      if (image.cols != cam.width || image.rows != cam.height || image.type() != cvTypeOfPixelFormat(cam.pixel_format)) {
+        return Status::Error(where + "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                             " with " + std::to_string(image.channels()) + " channels, the manifest says " +
+                             std::to_string(cam.width) + "x" + std::to_string(cam.height) + " " + cam.pixel_format);
+      }
+    } else {
+      const Status checked = manifest_.images == ImageMode::kCompressed
+                                 ? checkJpegFile(path, where, cam.width, cam.height, gray ? 1 : 3, size)
+                                 : checkPngFile(path, where, cam.width, cam.height, gray ? 0 : 2, size);
+      if (!checked.ok()) return checked;
+    }
+  }
+  if (record.silhouette.empty()) return Status::Ok();
+  const fs::path path = dir_ / cameraDirectoryName(camera) / record.silhouette;
+  const std::string where = path.string() + ": silhouette of " + frame;
+  std::error_code error;
+  const auto size = fs::file_size(path, error);
+  if (error) return Status::Error(where + "missing (" + error.message() + ")");
+  return checkPngFile(path, where, cam.width, cam.height, 0, size);
+}
+
+Expected<cv::Mat> SessionReader::readSilhouette(std::size_t set_index, int camera) const {
+  Expected<IndexRecord> record = frameRecord(set_index, camera);
+  if (!record.ok()) return Status::Error(record.error());
+  if (record.value().silhouette.empty()) return cv::Mat();
+  const fs::path path = dir_ / cameraDirectoryName(camera) / record.value().silhouette;
+  std::vector<uint8_t> bytes;
+  if (!readBytes(path, bytes))
+    return Status::Error(path.string() + ": " + describeFrame(camera, record.value()) + ": silhouette missing or unreadable");
+  cv::Mat silhouette = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  const SessionCamera& cam = manifest_.cameras[camera];
+  if (silhouette.cols != cam.width || silhouette.rows != cam.height || silhouette.type() != CV_8UC1)
+    return Status::Error(path.string() + ": " + describeFrame(camera, record.value()) +
+                         ": the silhouette is not a " + std::to_string(cam.width) + "x" +
+                         std::to_string(cam.height) + " gray PNG");
+  return silhouette;
+}
+
+Expected<IndexRecord> SessionReader::frameRecord(std::size_t set_index, int camera) const {
   if (set_index >= sets_.size() || camera < 0 || static_cast<std::size_t>(camera) >= manifest_.cameras.size()) {
     return Status::Error(dir_.string() + ": no set " + std::to_string(set_index) + " / camera " + std::to_string(camera));
   }
@@ -308,24 +392,40 @@ Expected<Frame> SessionReader::readFrame(std::size_t set_index, int camera) cons
     return Status::Error(dir_.string() + ": set " + std::to_string(sets_[set_index].sequence) + " has no frame of camera " +
                          std::to_string(camera));
   }
-  const fs::path path = imagePath(camera, *record);
-  const std::string where = path.string() + ": " + describeFrame(camera, *record) + ": ";
-  std::vector<uint8_t> bytes;
-  if (!readBytes(path, bytes)) return Status::Error(where + "image missing or unreadable");
-  Frame frame;
-  frame.image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  return *record;
+}
+
+Expected<Frame> SessionReader::readFrame(std::size_t set_index, int camera) const {
+  Expected<IndexRecord> found = frameRecord(set_index, camera);
+  if (!found.ok()) return Status::Error(found.error());
+  const IndexRecord& record = found.value();
   const SessionCamera& cam = manifest_.cameras[camera];
-  if (frame.image.empty()) return Status::Error(where + "not a decodable PNG");
-  if (frame.image.cols != cam.width || frame.image.rows != cam.height ||
-      frame.image.type() != cvTypeOfPixelFormat(cam.pixel_format)) {
-    return Status::Error(where + "image does not match the manifest's " + std::to_string(cam.width) + "x" +
-                         std::to_string(cam.height) + " " + cam.pixel_format);
+  Frame frame;
+  if (manifest_.images == ImageMode::kNone) {
+    Expected<cv::Mat> silhouette = readSilhouette(set_index, camera);
+    if (!silhouette.ok()) return Status::Error(silhouette.error());
+    frame.image = silhouette.value().empty() ? cv::Mat::zeros(cam.height, cam.width, CV_8UC1)
+                                             : silhouette.value();
+    if (cvTypeOfPixelFormat(cam.pixel_format) == CV_8UC3)
+      cv::cvtColor(frame.image, frame.image, cv::COLOR_GRAY2BGR);
+  } else {
+    const fs::path path = imagePath(camera, record);
+    const std::string where = path.string() + ": " + describeFrame(camera, record) + ": ";
+    std::vector<uint8_t> bytes;
+    if (!readBytes(path, bytes)) return Status::Error(where + "image missing or unreadable");
+    frame.image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+    if (frame.image.empty()) return Status::Error(where + "not a decodable image");
+    if (frame.image.cols != cam.width || frame.image.rows != cam.height ||
+        frame.image.type() != cvTypeOfPixelFormat(cam.pixel_format)) {
+      return Status::Error(where + "image does not match the manifest's " + std::to_string(cam.width) + "x" +
+                           std::to_string(cam.height) + " " + cam.pixel_format);
+    }
   }
   frame.camera = camera;
-  frame.sequence = record->camera_sequence;
-  frame.timestamp_ns = record->timestamp_ns;
-  frame.dropped_before = record->dropped_before;
-  frame.corrupt = record->corrupt;
+  frame.sequence = record.camera_sequence;
+  frame.timestamp_ns = record.timestamp_ns;
+  frame.dropped_before = record.dropped_before;
+  frame.corrupt = record.corrupt;
   return frame;
 }
 

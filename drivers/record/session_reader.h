@@ -35,8 +35,8 @@ struct SessionBackground {
 };
 
 struct SessionReadOptions {
-  // Decode every image at open (slow: the whole session) instead of checking each PNG's header
-  // against the manifest. Either way a missing file fails the open.
+  // Decode every image at open (slow: the whole session) instead of checking each PNG's or
+  // JPEG's header against the manifest. Either way a missing file fails the open.
   bool decode_all = false;
 };
 
@@ -80,16 +80,27 @@ class SessionReader {
   // What was tolerated at open (dropped partial lines, uncommitted frames), one line each.
   const std::vector<std::string>& notes() const { return notes_; }
 
-  // The stored frame of `camera` in set `set_index` (an index into sets()), exactly as recorded:
-  // Frame::camera = camera, recorded sequence, timestamp and flags, decoded pixels. An error names
-  // the file and frame if the set has no frame of that camera or the image does not decode.
+  // How the session keeps its images (manifest().images).
+  ImageMode images() const { return manifest_.images; }
+
+  // The stored frame of `camera` in set `set_index` (an index into sets()), as recorded:
+  // Frame::camera = camera, recorded sequence, timestamp and flags, decoded pixels (a JPEG's with
+  // images: compressed). A session without images (images: none) gives the recorded silhouette
+  // as the image, in the camera's pixel format, 255 where the subject is (black where none is
+  // stored): what a threshold turns back into that silhouette. An error names the file and frame
+  // if the set has no frame of that camera or the image does not decode.
   Expected<Frame> readFrame(std::size_t set_index, int camera) const;
+  // The recorded silhouette of `camera` in set `set_index`: CV_8UC1, 255 where the subject is;
+  // an empty Mat if none is stored (no background then, or a format 1 session).
+  Expected<cv::Mat> readSilhouette(std::size_t set_index, int camera) const;
   std::filesystem::path imagePath(int camera, const IndexRecord& record) const;
 
  private:
   SessionReader() = default;
   Status load(const SessionReadOptions& options);
+  // Checks the frame's image (as the session keeps them) and silhouette files.
   Status checkImage(int camera, const IndexRecord& record, bool decode) const;
+  Expected<IndexRecord> frameRecord(std::size_t set_index, int camera) const;
   Status loadBackgrounds();
   Status loadTruth();
 

@@ -478,7 +478,7 @@ TEST_F(SessionTest, StoresTheTruePosesOfASourceThatKnowsThem) {
 
 TEST_F(SessionTest, BadIndexLineIsNamedWithItsLine) {
   const fs::path dir = record("bad", CV_8UC1, 3);
-  std::ofstream(dir / "cam0" / kIndexFile, std::ios::app) << "12,x,3,0,0,000009.png\n";
+  std::ofstream(dir / "cam0" / kIndexFile, std::ios::app) << "12,x,3,0,0,000009.png,\n";
   const std::string error = openError(dir);
   EXPECT_THAT(error, HasSubstr("cam0/index.csv:5"));
   EXPECT_THAT(error, HasSubstr("camera_sequence 'x'"));
