@@ -206,6 +206,25 @@ class ConfigParser : public ConfigReader {
     return web;
   }
 
+  // `recording: {images: lossless|compressed|none, jpeg_quality: N, min_free_mb: N}`.
+  RecordingSettings recording(const YAML::Node& node) const {
+    onlyKeys(node, "recording", {"images", "jpeg_quality", "min_free_mb"});
+    RecordingSettings recording;
+    if (node["images"]) {
+      const std::string images = text(node["images"], "recording.images");
+      const std::optional<ImageMode> mode = parseImageMode(images);
+      if (!mode)
+        fail(node["images"], "recording.images",
+             "expected lossless, compressed or none, got '" + images + "'");
+      recording.images = *mode;
+    }
+    if (node["jpeg_quality"])
+      recording.jpeg_quality = integer(node["jpeg_quality"], "recording.jpeg_quality", 1, 100);
+    if (node["min_free_mb"])
+      recording.min_free_mb = integer(node["min_free_mb"], "recording.min_free_mb", 0, 100'000'000);
+    return recording;
+  }
+
   // `vmc: {send_to: [HOST:PORT, ...]}`. Not resolved here: a receiver's name may resolve only once
   // the network is up.
   VmcSettings vmc(const YAML::Node& node) const {
@@ -436,6 +455,7 @@ class ConfigParser : public ConfigReader {
               "web",
               "vmc",
               "recording_directory",
+              "recording",
               "background_directory",
               "silhouettes",
               "before_background",
@@ -480,6 +500,7 @@ class ConfigParser : public ConfigReader {
     silhouetteKeys(root, config);
     securityKeys(root, config);
     if (root["web"]) config.web = web(root["web"]);
+    if (root["recording"]) config.recording = recording(root["recording"]);
     if (root["vmc"]) config.vmc = vmc(root["vmc"]);
 
     if (root["log_level"]) {

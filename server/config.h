@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "drivers/camera_driver.h"
+#include "drivers/record/session_format.h"
 #include "server/vmc_target.h"
 #include "tracker/filters/filter.h"
 #include "tracker/motion/bvh.h"
@@ -73,6 +74,17 @@ struct VmcSettings {
   std::vector<VmcTarget> send_to;
 };
 
+// How sessions are recorded: `recording: {images: lossless|compressed|none, jpeg_quality: N,
+// min_free_mb: N}` (docs/recording.md).
+struct RecordingSettings {
+  ImageMode images = ImageMode::kLossless;
+  int jpeg_quality = 90;  // images: compressed, 1-100 (OpenCV's JPEG quality)
+  // Free space floor of the recording directory's file system: a recording does not start below
+  // it and stops (cleanly, keeping every committed frame set) when it gets there; 0: none.
+  // 512 MB leaves the system room for its logs and a few seconds of a lossless recording.
+  int min_free_mb = 512;
+};
+
 struct ServerConfig {
   std::string source = "<embedded default>";  // where it came from, for messages
   std::vector<CameraConfig> cameras;
@@ -112,6 +124,7 @@ struct ServerConfig {
   SyncSettings sync;
   std::string listen = "127.0.0.1:50051";
   std::string recording_directory;  // empty: recording is off
+  RecordingSettings recording;
   // Where CaptureBackground saves each camera's background and start-up loads it from; empty:
   // backgrounds last until the daemon stops.
   std::string background_directory;

@@ -52,12 +52,23 @@ RecordingControl::RecordingControl(
 
 RecordingStatus RecordingControl::statusLocked() const {
   if (!recorder_) return last_;
+  const RecorderStats stats = recorder_->stats();
   RecordingStatus status;
-  status.active = true;
+  status.active = stats.stopped.empty();  // stopped on its own: closed at the next frame set
   status.path = path_;
-  status.frame_sets = recorder_->stats().sets_written;
+  status.frame_sets = stats.sets_written;
   status.started_wall_ns = started_wall_ns_;
+  status.stopped = stats.stopped;
   return status;
+}
+
+RecorderOptions RecordingControl::recorderOptions() const {
+  RecorderOptions options;
+  options.images = config_.recording.images;
+  options.jpeg_quality = config_.recording.jpeg_quality;
+  options.min_free_bytes = static_cast<uint64_t>(config_.recording.min_free_mb) * 1'000'000;
+  options.threshold_without_background = config_.threshold_before_background;
+  return options;
 }
 
 RecordingStatus RecordingControl::status() const {
@@ -98,7 +109,9 @@ RecordingResult RecordingControl::start(const std::string& relative_path) {
     if (result.error != RecordingError::kNone) return result;
   }
   // Opening writes files: done outside the lock so the mask thread never waits on the disk.
-  auto recorder = std::make_unique<Recorder>(config_.recording_directory);
+  auto recorder = std::make_unique<Recorder>(config_.recording_directory, recorderOptions());
+  if (Status room = recorder->checkFreeSpace(); !room.ok())
+    return {RecordingError::kBusy, room.message(), {}};
   SessionTracking tracking;
   const TrackedBody body = tracking_.tracked_body();
   tracking.body = body.model.get();
@@ -135,37 +148,68 @@ RecordingResult RecordingControl::stop() {
   RecordingStatus final_status;
   {
     std::lock_guard lock(mutex_);
-    if (!recorder_) return {RecordingError::kNotRecording, "no recording is running", last_};
-    final_status = statusLocked();
+    if (recorder_) final_status = statusLocked();
     recorder = std::move(recorder_);
   }
-  // Flushing the queue to disk happens outside the lock, while the mask thread goes on.
+  if (recorder) {
+    // Flushing the queue to disk happens outside the lock, while the mask thread goes on.
+    RecordingResult result = finish(std::move(recorder), final_status);
+    if (result.status.stopped.empty()) return result;
+  }
+  // A recording that stopped on its own was not running when asked: say why it stopped.
+  std::lock_guard lock(mutex_);
+  const std::string why =
+      last_.stopped.empty() ? "" : ": " + last_.path + " stopped on its own: " + last_.stopped;
+  return {RecordingError::kNotRecording, "no recording is running" + why, last_};
+}
+
+RecordingResult RecordingControl::finish(std::unique_ptr<Recorder> recorder,
+                                         RecordingStatus status) {
   const Status closed = recorder->close();
-  final_status.active = false;
-  final_status.frame_sets = recorder->stats().sets_written;
   const RecorderStats stats = recorder->stats();
+  status.active = false;
+  status.frame_sets = stats.sets_written;
+  status.stopped = stats.stopped;
   {
     std::lock_guard lock(mutex_);
-    last_ = final_status;
+    last_ = status;
   }
-  logInfo() << "recording " << recorder->sessionPath().string() << " closed: " << stats.sets_written
+  const std::string session = recorder->sessionPath().string();
+  if (!stats.stopped.empty()) {
+    logError() << "recording " << session << " stopped: " << stats.stopped << "; "
+               << stats.sets_written << " frame sets kept, " << stats.sets_discarded
+               << " queued ones discarded";
+    return {RecordingError::kNone, "", status};  // the session is whole: the status says why
+  }
+  logInfo() << "recording " << session << " closed: " << stats.sets_written
             << " frame sets written, " << stats.sets_dropped << " dropped (disk too slow)";
-  if (!closed.ok()) return {RecordingError::kIo, closed.message(), final_status};
-  return {RecordingError::kNone, "", final_status};
+  if (!closed.ok()) return {RecordingError::kIo, closed.message(), status};
+  return {RecordingError::kNone, "", status};
 }
 
 void RecordingControl::tap(const FrameSet& set, uint64_t frame_sequence) {
-  std::lock_guard lock(mutex_);
-  for (std::size_t c = 0; c < set.frames.size() && c < cameras_.size(); ++c) {
-    if (!set.frames[c]) continue;
-    camera_cv_types_[c] = set.frames[c]->image.type();
-    next_frame_sequences_[c] = set.frames[c]->sequence + 1;
+  std::unique_ptr<Recorder> stopped;
+  RecordingStatus stopped_status;
+  {
+    std::lock_guard lock(mutex_);
+    for (std::size_t c = 0; c < set.frames.size() && c < cameras_.size(); ++c) {
+      if (!set.frames[c]) continue;
+      camera_cv_types_[c] = set.frames[c]->image.type();
+      next_frame_sequences_[c] = set.frames[c]->sequence + 1;
+    }
+    if (recorder_ && recorder_->stopped()) {
+      stopped_status = statusLocked();
+      last_ = stopped_status;  // until finish() has the final count
+      stopped = std::move(recorder_);
+    } else if (recorder_) {
+      SetTruth truth{frame_sequence, {}};
+      if (tracking_.truth) truth.dofs = tracking_.truth(frame_sequence);
+      recorder_->write(set, std::move(truth));
+    }
   }
-  if (recorder_) {
-    SetTruth truth{frame_sequence, {}};
-    if (tracking_.truth) truth.dofs = tracking_.truth(frame_sequence);
-    recorder_->write(set, std::move(truth));
-  }
+  // Its writer has already stopped, so closing joins it at once and syncs the index files: the
+  // mask thread waits this once, outside the lock.
+  if (stopped) finish(std::move(stopped), stopped_status);
 }
 
 void RecordingControl::noteBackground(std::size_t camera,

@@ -35,6 +35,9 @@ struct RecordingStatus {
   std::string path;  // relative to the recording directory
   uint64_t frame_sets = 0;
   int64_t started_wall_ns = 0;
+  // Why the recording stopped on its own: free space under recording.min_free_mb, or a write
+  // that failed (ENOSPC, EIO); empty while it runs or once stopped on request.
+  std::string stopped;
 };
 
 // Why a recording request failed, so the service can pick the gRPC code.
@@ -78,6 +81,7 @@ class RecordingControl {
   RecordingStatus status() const;
 
   // Mask thread: notes the cameras' latest frames and records the set while a session is open.
+  // Closes a session whose recorder stopped on its own (the disk floor, a failed write).
   void tap(const FrameSet& set, uint64_t frame_sequence);
   // Camera's silhouettes are extracted against `background` from its next frame on (null:
   // thresholded, or none): an open session notes it from that frame.
@@ -92,6 +96,9 @@ class RecordingControl {
 
  private:
   RecordingStatus statusLocked() const;
+  RecorderOptions recorderOptions() const;
+  // Closes `recorder` (taken out of recorder_), keeps its final status and logs it.
+  RecordingResult finish(std::unique_ptr<Recorder> recorder, RecordingStatus status);
   // Under mutex_: the cameras as a session describes them, or why it cannot open yet.
   RecordingResult describeCamerasLocked(std::vector<SessionCamera>& cameras) const;
 

@@ -460,5 +460,31 @@ TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {
               HasSubstr("test.yaml:3: before_background: expected wait or threshold, got 'guess'"));
 }
 
+TEST(ConfigTest, HowSessionsAreRecorded) {
+  const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
+  const RecordingSettings defaults = parseConfig(cameras, "test.yaml", ".").recording;
+  EXPECT_EQ(defaults.images, ImageMode::kLossless);
+  EXPECT_EQ(defaults.jpeg_quality, 90);
+  EXPECT_EQ(defaults.min_free_mb, 512);
+  const RecordingSettings set =
+      parseConfig(cameras + "recording: {images: compressed, jpeg_quality: 75, min_free_mb: 0}\n",
+                  "test.yaml", ".")
+          .recording;
+  EXPECT_EQ(set.images, ImageMode::kCompressed);
+  EXPECT_EQ(set.jpeg_quality, 75);
+  EXPECT_EQ(set.min_free_mb, 0);
+  EXPECT_EQ(parseConfig(cameras + "recording: {images: none}\n", "test.yaml", ".").recording.images,
+            ImageMode::kNone);
+  EXPECT_THAT(errorOf(cameras + "recording: {images: video}\n"),
+              HasSubstr("test.yaml:3: recording.images: expected lossless, compressed or none, "
+                        "got 'video'"));
+  EXPECT_THAT(errorOf(cameras + "recording: {jpeg_quality: 101}\n"),
+              HasSubstr("recording.jpeg_quality: must be between 1 and 100"));
+  EXPECT_THAT(errorOf(cameras + "recording: {min_free_mb: -1}\n"),
+              HasSubstr("recording.min_free_mb: must be between 0 and"));
+  EXPECT_THAT(errorOf(cameras + "recording: {floor: 3}\n"),
+              HasSubstr("recording.floor: unknown key"));
+}
+
 }  // namespace
 }  // namespace mocap
