@@ -6,9 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
-#include <iterator>
 #include <map>
 #include <mutex>
 #include <string>
@@ -170,11 +168,6 @@ TEST_F(EndToEndTest, TokenIsRequiredOnEveryCall) {
               ::testing::HasSubstr("\"mode\": \"live\""));
 }
 
-std::string fileText(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
 // The status code of a GetStatus call over `channel` (10 s deadline): UNAVAILABLE when the
 // handshake is refused.
 grpc::StatusCode statusCodeOver(const std::shared_ptr<grpc::Channel>& channel) {
@@ -201,7 +194,7 @@ TEST_F(EndToEndTest, ServesTlsToClientsThatTrustItsCertificateOnly) {
   auto channel = [&](const test::TlsFiles* trusted) {
     if (!trusted) return grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
     grpc::SslCredentialsOptions tls;
-    tls.pem_root_certs = fileText(trusted->cert);
+    tls.pem_root_certs = test::fileText(trusted->cert);
     return grpc::CreateChannel(address, grpc::SslCredentials(tls));
   };
   auto statusCode = [&](const test::TlsFiles* trusted) { return statusCodeOver(channel(trusted)); };
@@ -245,10 +238,10 @@ TEST_F(EndToEndTest, AsksClientsForACertificateWhenTheConfigurationNamesTheirAut
   const std::string address = "127.0.0.1:" + std::to_string(server->port());
   auto statusCode = [&](const test::TlsFiles* presented) {
     grpc::SslCredentialsOptions tls;
-    tls.pem_root_certs = fileText(daemon.cert);
+    tls.pem_root_certs = test::fileText(daemon.cert);
     if (presented) {
-      tls.pem_cert_chain = fileText(presented->cert);
-      tls.pem_private_key = fileText(presented->key);
+      tls.pem_cert_chain = test::fileText(presented->cert);
+      tls.pem_private_key = test::fileText(presented->key);
     }
     return statusCodeOver(grpc::CreateChannel(address, grpc::SslCredentials(tls)));
   };

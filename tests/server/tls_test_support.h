@@ -1,5 +1,6 @@
 // Certificates made on the spot for the TLS tests, so no private key lives in the tree: a P-256
-// key and a self-signed certificate for 127.0.0.1 and localhost, written as PEM files.
+// key and a self-signed certificate for 127.0.0.1 and localhost, written as PEM files (and read
+// back).
 #pragma once
 
 #include <openssl/evp.h>
@@ -8,6 +9,8 @@
 #include <openssl/x509v3.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -18,6 +21,12 @@ struct TlsFiles {
   std::string cert;
   std::string key;
 };
+
+// A PEM file's text, as gRPC's credentials take it.
+inline std::string fileText(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
 
 // Writes dir/name.crt and dir/name.key, the certificate valid from `valid_from_days` to
 // `valid_to_days` days from now; `passphrase`, if not empty, encrypts the key.
