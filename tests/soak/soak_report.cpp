@@ -10,6 +10,8 @@
 #include <map>
 #include <optional>
 #include <regex>
+#include <tuple>
+#include <utility>
 
 namespace mocap::soak {
 namespace {
@@ -21,11 +23,16 @@ double rounded(double value, int decimals) {
   return std::round(value * scale) / scale;
 }
 
-double peakMb(const std::vector<Sample>& samples, int incarnation, double from, double to) {
-  long peak = 0;
-  for (const Sample& s : samples)
-    if (s.incarnation == incarnation && s.t >= from && s.t <= to) peak = std::max(peak, s.rss_kb);
-  return static_cast<double>(peak) / 1024.0;
+// The lowest and the highest RSS of run `incarnation` between `from` and `to` (seconds), in MB.
+std::pair<double, double> rssRangeMb(const std::vector<Sample>& samples, int incarnation,
+                                     double from, double to) {
+  long low = 0, high = 0;
+  for (const Sample& s : samples) {
+    if (s.incarnation != incarnation || s.t < from || s.t > to) continue;
+    low = low == 0 ? s.rss_kb : std::min(low, s.rss_kb);
+    high = std::max(high, s.rss_kb);
+  }
+  return {low / 1024.0, high / 1024.0};
 }
 
 json target(const json& value, const std::string& goal, bool pass) {
@@ -83,9 +90,12 @@ json incarnations(const SoakFigures& figures, std::optional<double>& worst_growt
     if (growth[i]) {
       run["rss_growth"] = {{"from_s", rounded(growth[i]->from_s, 1)},
                            {"to_s", rounded(growth[i]->to_s, 1)},
+                           {"warm_floor_mb", rounded(growth[i]->warm_floor_mb, 1)},
+                           {"end_floor_mb", rounded(growth[i]->end_floor_mb, 1)},
+                           {"percent", rounded(growth[i]->percent, 2)},
                            {"warm_peak_mb", rounded(growth[i]->warm_peak_mb, 1)},
                            {"end_peak_mb", rounded(growth[i]->end_peak_mb, 1)},
-                           {"percent", rounded(growth[i]->percent, 2)}};
+                           {"peak_percent", rounded(growth[i]->peak_percent, 2)}};
       worst_growth = std::max(worst_growth.value_or(-1e9), growth[i]->percent);
     }
     runs.push_back(run);
@@ -133,9 +143,12 @@ std::vector<std::optional<MemoryGrowth>> memoryGrowth(const SoakFigures& figures
     MemoryGrowth g;
     g.from_s = warm;
     g.to_s = end;
-    g.warm_peak_mb = peakMb(figures.samples, static_cast<int>(i), warm, warm + cycle);
-    g.end_peak_mb = peakMb(figures.samples, static_cast<int>(i), end - cycle, end);
-    g.percent = 100.0 * (g.end_peak_mb / g.warm_peak_mb - 1.0);
+    const int run = static_cast<int>(i);
+    std::tie(g.warm_floor_mb, g.warm_peak_mb) =
+        rssRangeMb(figures.samples, run, warm, warm + cycle);
+    std::tie(g.end_floor_mb, g.end_peak_mb) = rssRangeMb(figures.samples, run, end - cycle, end);
+    g.percent = 100.0 * (g.end_floor_mb / g.warm_floor_mb - 1.0);
+    g.peak_percent = 100.0 * (g.end_peak_mb / g.warm_peak_mb - 1.0);
     growth.push_back(g);
   }
   return growth;

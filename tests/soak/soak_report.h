@@ -40,13 +40,16 @@ struct SoakFigures {
   std::string daemon_log;
 };
 
-// Memory growth of one run of the daemon after its warm-up: the peak over the first cycle after
-// warm-up against the peak over its last cycle (each window holds one recording, so they compare
-// like with like). Unset when the run is too short for two such windows.
+// Memory growth of one run of the daemon after its warm-up: its first cycle after warm-up against
+// its last. Judged on the floor, the lowest RSS of each window (between recordings): the peak
+// while recording is mostly the recorder's queue of frames, whose fill follows the machine's
+// load. Unset when the run is too short for two such windows.
 struct MemoryGrowth {
   double from_s = 0, to_s = 0;
+  double warm_floor_mb = 0, end_floor_mb = 0;
   double warm_peak_mb = 0, end_peak_mb = 0;
-  double percent = 0;
+  double percent = 0;       // of the floor
+  double peak_percent = 0;  // of the peak, for the record
 };
 std::vector<std::optional<MemoryGrowth>> memoryGrowth(const SoakFigures& figures);
 
