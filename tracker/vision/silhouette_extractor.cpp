@@ -236,7 +236,7 @@ void SilhouetteExtractor::classify(const cv::Mat& region, float scale) {
   // Row y is classified once rows y-2 .. y+2 are normalized: the plane fit reads them from a ring.
   const int rows = roi_.height, cols = roi_.width, channels = region.channels();
   cv::Point weak_min(cols, rows), weak_max(-1, -1);
-  scratch_.ratio_row_in_slot.fill(-1);
+  scratch_.ratio_slots.fill({});
   for (int y = 0; y < rows + 2; ++y) {
     if (y < rows)
       silhouette_kernels::normalizeAndTestRow(
@@ -247,21 +247,32 @@ void SilhouetteExtractor::classify(const cv::Mat& region, float scale) {
   if (weak_max.x >= weak_min.x) resolveWeakShadows(cv::Rect(weak_min, weak_max + cv::Point(1, 1)));
 }
 
-void SilhouetteExtractor::ensureRatioRow(int y) {
-  // Ratios are needed only around changed pixels: most rows of most frames have none.
-  const int slot = y % kRatioRing;
-  if (scratch_.ratio_row_in_slot[slot] == y) return;
-  scratch_.ratio_row_in_slot[slot] = y;
+void SilhouetteExtractor::ensureRatios(int y, int begin, int end) {
+  // Ratios are needed only around changed pixels: most rows of most frames have none, and most of
+  // a row with some lies outside them. A slot's columns stay one run, widened as asked.
+  begin = std::max(begin, 0);
+  end = std::min(end, roi_.width);
+  if (begin >= end) return;
+  Scratch::RatioSlot& slot = scratch_.ratio_slots[static_cast<std::size_t>(y % kRatioRing)];
+  if (slot.row != y) slot = {y, begin, begin};
   const uint8_t* normalized = scratch_.normalized.ptr<uint8_t>(y);
-  float* ratio = scratch_.ratio_rows.ptr<float>(slot);
-  float* ratio_squared = scratch_.ratio_squares.ptr<float>(slot);
-  if (background_.channels() == 1)
-    silhouette_kernels::ratioRow(normalized, inverse_mean_.ptr<float>(y), roi_.width, ratio,
-                                 ratio_squared);
-  else
-    silhouette_kernels::colorRatioRow(normalized, background_.mean(roi_).ptr<float>(y),
-                                      inverse_mean_.ptr<float>(y), roi_.width, ratio,
-                                      ratio_squared);
+  float* ratio = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
+  float* ratio_squared = scratch_.ratio_squares.ptr<float>(y % kRatioRing);
+  const float* inverse = inverse_mean_.ptr<float>(y);
+  const float* mean = background_.mean(roi_).ptr<float>(y);
+  const auto compute = [&](int from, int to) {
+    if (from >= to) return;
+    if (background_.channels() == 1)
+      silhouette_kernels::ratioRow(normalized + from, inverse + from, to - from, ratio + from,
+                                   ratio_squared + from);
+    else
+      silhouette_kernels::colorRatioRow(normalized + 3 * from, mean + 3 * from, inverse + from,
+                                        to - from, ratio + from, ratio_squared + from);
+  };
+  compute(begin, slot.begin);
+  compute(slot.end, end);
+  slot.begin = std::min(slot.begin, begin);
+  slot.end = std::max(slot.end, end);
 }
 
 void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& weak_max) {
@@ -273,7 +284,8 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
   uint8_t* shadow = shadow_.ptr<uint8_t>(y);
   std::memset(candidate, 0, static_cast<std::size_t>(cols));
   std::memset(shadow, 0, static_cast<std::size_t>(cols));
-  if (skipUnchanged(same, 0, cols) == cols) return;
+  const int first_changed = skipUnchanged(same, 0, cols);
+  if (first_changed == cols) return;
   // A shadow scales the background by a factor that varies smoothly (a soft edge is a ramp), so
   // over the 5x5 patch the ratio frame/background fits a plane up to the noise. A person brings
   // their own shading, stripes and edges and ignores the background's texture: the plane leaves
@@ -281,7 +293,11 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
   // in the shadow band (and, in colour, that keep the background's colour) take the fit; the
   // others are the person's. Colour alone is not enough: grey clothes over a grey floor keep it.
   const bool fits_row = o.suppress_shadows && y > 1 && y < rows - 2;
-  if (fits_row) ensureRatioRow(y);
+  if (fits_row) {
+    int last_changed = cols - 1;
+    while (same[last_changed]) --last_changed;
+    ensureRatios(y, first_changed, last_changed + 1);
+  }
   const float* centre = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
   const bool color = background_.channels() == 3;
   const uint8_t* in = scratch_.normalized.ptr<uint8_t>(y);
@@ -302,7 +318,8 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
       candidate[x] = 255;
   }
   if (fit.empty()) return;
-  for (int dy = -2; dy <= 2; ++dy) ensureRatioRow(y + dy);
+  // fitPlanes reads two columns left of a group of four and two right of it.
+  for (int dy = -2; dy <= 2; ++dy) ensureRatios(y + dy, fit.front() - 2, fit.back() + 6);
   const float* rows_ratio[kRatioRing];
   const float* rows_square[kRatioRing];
   for (int dy = -2; dy <= 2; ++dy) {

@@ -96,8 +96,11 @@ class SilhouetteExtractor {
     cv::Mat cleaned;
     // frame / background of 5 rows (row y in slot y % 5), and its square
     cv::Mat ratio_rows, ratio_squares;
-    std::array<int, 5> ratio_row_in_slot{};  // the row each slot holds this frame, -1 if none
-    std::vector<int> fit_columns;            // one row's pixels that take the plane fit
+    struct RatioSlot {
+      int row = -1, begin = 0, end = 0;  // the row and columns a ring slot holds this frame
+    };
+    std::array<RatioSlot, 5> ratio_slots;
+    std::vector<int> fit_columns;  // one row's pixels that take the plane fit
     std::vector<int> flood_stack;
     std::vector<std::vector<cv::Point>> contours;
     std::vector<cv::Vec4i> hierarchy;
@@ -108,7 +111,7 @@ class SilhouetteExtractor {
   void estimateGain(const cv::Mat& frame);
   bool keepsBackgroundColor(const uint8_t* in, const float* mu, float sigma) const;
   void classify(const cv::Mat& region, float scale);
-  void ensureRatioRow(int y);
+  void ensureRatios(int y, int begin, int end);
   void classifyRow(int y, cv::Point& weak_min, cv::Point& weak_max);
   void resolveWeakShadows(cv::Rect box);
   void cleanup();
