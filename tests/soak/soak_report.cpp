@@ -219,6 +219,7 @@ json soakReport(const SoakFigures& figures) {
       {"daemon_runs", runs},
       {"rss_mb_over_time", rssTimeline(figures.samples)},
       {"recordings", recordings},
+      {"closed_recordings_sets_dropped_by_recorder", closed_dropped},
       {"recordings_refused", figures.recordings_refused},
       {"crashes", figures.crashes},
       {"events", figures.events},
