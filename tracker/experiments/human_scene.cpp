@@ -114,24 +114,27 @@ void HumanScene::renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::Mat
 }
 
 void HumanScene::countExtraction(const cv::Mat& extracted) {
+  // The room is what is neither person nor cast shadow (which never lies on the person).
   ExtractionCounts& n = extraction_counts_;
-  const cv::Mat& person = frame_.body;
-  const cv::Mat room = ~(person | frame_.shadow);
-  const int both = cv::countNonZero(extracted & person);
-  const int either = cv::countNonZero(extracted | person);
-  n.iou_sum += either > 0 ? static_cast<double>(both) / either : 1.0;
+  const int person = cv::countNonZero(frame_.body);
+  const int shadow = cv::countNonZero(frame_.shadow);
+  const int found = cv::countNonZero(extracted & frame_.body);
+  const int shadow_taken = cv::countNonZero(extracted & frame_.shadow);
+  const int taken = cv::countNonZero(extracted);
+  const int either = person + taken - found;
+  n.iou_sum += either > 0 ? static_cast<double>(found) / either : 1.0;
   ++n.frames;
-  n.person += cv::countNonZero(person);
-  n.missed += cv::countNonZero(person) - both;
-  n.shadow += cv::countNonZero(frame_.shadow);
-  n.shadow_taken += cv::countNonZero(extracted & frame_.shadow);
-  n.room += cv::countNonZero(room);
-  n.room_taken += cv::countNonZero(extracted & room);
+  n.person += person;
+  n.missed += person - found;
+  n.shadow += shadow;
+  n.shadow_taken += shadow_taken;
+  n.room += static_cast<long>(extracted.total()) - person - shadow;
+  n.room_taken += taken - found - shadow_taken;
 }
 
 std::optional<HumanScene::ExtractionScore> HumanScene::extractionScore() const {
   const ExtractionCounts& n = extraction_counts_;
-  if (!options_.extracted || n.frames == 0) return std::nullopt;
+  if (n.frames == 0) return std::nullopt;  // true silhouettes: nothing extracted
   const auto share = [](long part, long whole) {
     return whole > 0 ? static_cast<double>(part) / static_cast<double>(whole) : 0.0;
   };
