@@ -25,6 +25,7 @@
 #include "tracker/search/acquire.h"
 #include "tracker/search/body_size.h"
 #include "tracker/sim/scene.h"
+#include "tracker/sim/subject.h"
 
 namespace mocap {
 
@@ -258,6 +259,15 @@ void describeProportions(const BodyProportions& proportions, const char* key, nl
   out[key] = named;
 }
 
+// What a subject wears, so a run's result can be read against its outline.
+nlohmann::json describeClothing(const Clothing& clothing) {
+  static const char* const kLower[] = {"trousers", "loose_trousers", "skirt", "dress"};
+  return {{"lower", kLower[static_cast<int>(clothing.lower)]},
+          {"coat", clothing.coat},
+          {"long_hair", clothing.long_hair},
+          {"shoes", clothing.shoes}};
+}
+
 nlohmann::json orNull(const std::optional<int>& value) {
   return value ? nlohmann::json(*value) : nlohmann::json();
 }
@@ -291,6 +301,7 @@ void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubj
             renderer.subjectProportions(subject.unfitted)) {
       describeProportions(*drawn, "subject_proportions", out);
       out["subject_height_m"] = renderer.subjectParams()->height;
+      out["subject_clothing"] = describeClothing(renderer.subjectParams()->clothing);
     }
     if (const auto extraction = renderer.extractionScore())
       out["extraction"] = {{"iou", extraction->iou},

@@ -14,6 +14,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tracker/sim/subject.h"
+
 namespace mocap {
 namespace {
 
@@ -289,6 +291,12 @@ TEST(HumanExperiment, TheProductPathFindsAndKeepsTheSubject) {
   EXPECT_EQ(out["tracked_body"], "fit");
   ASSERT_TRUE(out.contains("subject_proportions")) << out.dump();
   ASSERT_TRUE(out.contains("body_proportions")) << out.dump();
+  // What the subject wears is reported as drawn (subject 106: a skirt under a coat).
+  const Clothing worn = drawSubjectParams(106).clothing;
+  EXPECT_EQ(out["subject_clothing"]["lower"], "skirt");
+  EXPECT_EQ(worn.lower, LowerGarment::kSkirt);
+  EXPECT_EQ(out["subject_clothing"]["coat"], worn.coat);
+  EXPECT_EQ(out["subject_clothing"]["long_hair"], worn.long_hair);
   EXPECT_EQ(out["acquisitions"], 1) << out.dump();
   EXPECT_EQ(out["frames_without_pose"], 0) << out.dump();
   EXPECT_LT(out["per_joint_mm"]["neck"].get<double>(), 80.0) << out.dump();
