@@ -85,9 +85,11 @@ void validate(const HumanExperimentConfig& config) {
   if (config.silhouettes == "extracted" && config.noise != "none")
     throw std::invalid_argument("--noise realistic corrupts true silhouettes: not with extracted");
   if (config.tracked_body != "truth" && config.tracked_body != "default" &&
-      config.tracked_body != "fit")
-    throw std::invalid_argument("--tracked-body: expected truth, default or fit, got '" +
+      config.tracked_body != "fit" && config.tracked_body != "drawn")
+    throw std::invalid_argument("--tracked-body: expected truth, default, fit or drawn, got '" +
                                 config.tracked_body + "'");
+  if (config.tracked_body == "drawn" && !config.subject_seed)
+    throw std::invalid_argument("--tracked-body drawn: needs --subject-seed (the drawn subject)");
 }
 
 // The subject and its motion: the model file's body with the BVH's proportions (optionally all
@@ -188,6 +190,9 @@ TrackedBody trackedBodyFor(const HumanExperimentConfig& config, const HumanSubje
   if (config.tracked_body == "default") return {subject.unfitted, std::nullopt, 0};
   if (config.tracked_body == "fit")
     return fitTrackedBody(config, subject, rig, renderer, likelihood);
+  if (config.tracked_body == "drawn")
+    return {proportionedBodyModel(subject.unfitted, *renderer.subjectProportions(subject.unfitted)),
+            std::nullopt, 0};
   return {subject.model, std::nullopt, 0};
 }
 

@@ -73,7 +73,9 @@ struct HumanExperimentConfig {
   double subject_scale = 1;
   // The body the tracker is given: "truth" (the subject's own), "default" (the model file, the
   // shipped human a 1.75 m adult's), or "fit" (the model file fitted by fitBodyInPose to
-  // kFitFrames frames of the subject in its fit_pose before the motion, turning a quarter turn).
+  // kFitFrames frames of the subject in its fit_pose before the motion, turning a quarter turn),
+  // or "drawn" (the model file's body with the drawn subject's own proportions, as
+  // subject_proportions reports them: what a perfect fit of the six would give).
   std::string tracked_body = "truth";
   // A live tracker that cannot keep up: each frame after the first is skipped (not tracked, not
   // scored) with this probability, from its own seeded stream, as mocapd drops the frame sets
