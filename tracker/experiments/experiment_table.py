@@ -23,12 +23,15 @@ def run(binary, experiment, flags):
     return json.loads(out.stdout)
 
 
+def split_passthrough(argv):
+    """The script's own arguments, and those after "--" for every run."""
+    if "--" not in argv:
+        return argv, []
+    return argv[:argv.index("--")], argv[argv.index("--") + 1:]
+
+
 def main():
-    argv = sys.argv[1:]
-    passthrough = []
-    if "--" in argv:
-        passthrough = argv[argv.index("--") + 1:]
-        argv = argv[:argv.index("--")]
+    argv, passthrough = split_passthrough(sys.argv[1:])
     parser = argparse.ArgumentParser()
     parser.add_argument("experiment")
     parser.add_argument("--bin", default="build/bin/mocap-experiment")

@@ -19,6 +19,8 @@ import statistics
 import subprocess
 import sys
 
+from experiment_table import split_passthrough
+
 LENGTHS = ("legs", "arms", "trunk", "head", "width")
 
 
@@ -60,11 +62,7 @@ def summarize(rows):
 
 
 def main():
-    argv = sys.argv[1:]
-    passthrough = []
-    if "--" in argv:
-        passthrough = argv[argv.index("--") + 1:]
-        argv = argv[:argv.index("--")]
+    argv, passthrough = split_passthrough(sys.argv[1:])
     parser = argparse.ArgumentParser()
     parser.add_argument("--bin", default="build/bin/mocap-experiment")
     parser.add_argument("--motions", nargs="+")
