@@ -6,6 +6,10 @@
 namespace mocap {
 namespace {
 
+constexpr uint64_t kClosed = uint64_t{1} << 31;
+constexpr uint64_t kJoinedMask = kClosed - 1;
+inline uint32_t generationOf(uint64_t ticket) { return static_cast<uint32_t>(ticket >> 32); }
+
 // A bound on the spin, not a time: 20,000 pauses took 300-370 us on the Xeon VM the benchmarks
 // in docs/ ran on (PAUSE costs about 140 cycles from Skylake on), far longer than on older cores.
 constexpr int kSpinIterations = 20000;
@@ -52,26 +56,43 @@ void WorkerPool::parallelFor(int count, const std::function<void(int, int)>& fn)
     job_ = &fn;
     count_ = count;
     next_.store(0, std::memory_order_relaxed);
-    busy_.store(static_cast<int>(workers_.size()), std::memory_order_relaxed);
-    generation_.fetch_add(1, std::memory_order_release);
+    finished_.store(0, std::memory_order_relaxed);
+    const uint32_t generation = generationOf(ticket_.load(std::memory_order_relaxed)) + 1;
+    ticket_.store(static_cast<uint64_t>(generation) << 32, std::memory_order_release);
   }
   wake_.notify_all();
   drain(0);
-  for (int spin = 0; spin < kSpinIterations && busy_.load(std::memory_order_acquire) != 0; ++spin)
+  // Every index is taken: no worker may join now, and only those that did are waited for.
+  const int joined =
+      static_cast<int>(ticket_.fetch_or(kClosed, std::memory_order_acq_rel) & kJoinedMask);
+  for (int spin = 0;
+       spin < kSpinIterations && finished_.load(std::memory_order_acquire) != joined; ++spin)
     cpuRelax();
-  if (busy_.load(std::memory_order_acquire) != 0) {
+  if (finished_.load(std::memory_order_acquire) != joined) {
     std::unique_lock<std::mutex> lock(mutex_);
-    done_.wait(lock, [this] { return busy_.load(std::memory_order_acquire) == 0; });
+    done_.wait(lock, [&] { return finished_.load(std::memory_order_acquire) == joined; });
   }
   job_ = nullptr;
 }
 
+// Joins the job of `ticket`'s generation if it is still open; false if it was closed first.
+bool WorkerPool::join(uint64_t ticket) {
+  const uint32_t generation = generationOf(ticket);
+  while (!(ticket & kClosed)) {
+    if (ticket_.compare_exchange_weak(ticket, ticket + 1, std::memory_order_acq_rel,
+                                      std::memory_order_acquire))
+      return true;
+    if (generationOf(ticket) != generation) return false;
+  }
+  return false;
+}
+
 void WorkerPool::workerLoop(int worker) {
-  unsigned seen = 0;
+  uint32_t seen = 0;
   while (true) {
     auto idle = [&] {
       return !stopping_.load(std::memory_order_acquire) &&
-             generation_.load(std::memory_order_acquire) == seen;
+             generationOf(ticket_.load(std::memory_order_acquire)) == seen;
     };
     for (int spin = 0; spin < kSpinIterations && idle(); ++spin) cpuRelax();
     if (idle()) {
@@ -79,12 +100,13 @@ void WorkerPool::workerLoop(int worker) {
       wake_.wait(lock, [&] { return !idle(); });
     }
     if (stopping_.load(std::memory_order_acquire)) return;
-    seen = generation_.load(std::memory_order_acquire);
+    const uint64_t ticket = ticket_.load(std::memory_order_acquire);
+    seen = generationOf(ticket);
+    if (!join(ticket)) continue;  // the caller drained it alone
     drain(worker);
-    if (busy_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      done_.notify_one();
-    }
+    finished_.fetch_add(1, std::memory_order_acq_rel);
+    std::lock_guard<std::mutex> lock(mutex_);
+    done_.notify_one();
   }
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <condition_variable>
 #include <functional>
 #include <mutex>
@@ -26,6 +27,7 @@ class WorkerPool {
 
  private:
   void workerLoop(int worker);
+  bool join(uint64_t ticket);
   void drain(int worker);
 
   std::vector<std::thread> workers_;
@@ -35,8 +37,13 @@ class WorkerPool {
   const std::function<void(int, int)>* job_ = nullptr;
   int count_ = 0;
   std::atomic<int> next_{0};
-  std::atomic<int> busy_{0};             // workers still inside the current job
-  std::atomic<unsigned> generation_{0};  // bumped per job so workers join each job once
+  // The current job's ticket: its generation (high 32 bits, bumped per job), whether it is closed
+  // to workers (kClosed) and how many joined it (the low bits). A worker joins while the job is
+  // open; the caller closes it once it has drained the indices itself and waits only for the
+  // workers that joined, so a worker the scheduler has not run (another process on its core) does
+  // not hold up the layer barrier.
+  std::atomic<uint64_t> ticket_{0};
+  std::atomic<int> finished_{0};  // workers of the current job that are done with it
   std::atomic<bool> stopping_{false};
 };
 
