@@ -16,19 +16,16 @@ import concurrent.futures
 import json
 import os
 import statistics
-import subprocess
 import sys
 
-from experiment_table import split_passthrough
+from experiment_table import run, split_passthrough
 
 LENGTHS = ("legs", "arms", "trunk", "head", "width")
 
 
-def run(binary, motion, subject, seed, passthrough):
-    flags = ["human", "--motion", motion, "--scenario", "product", "--subject-seed", subject,
-             "--seed", seed] + passthrough
-    out = subprocess.run([binary] + flags, check=True, capture_output=True, text=True)
-    return json.loads(out.stdout)
+def run_product(binary, motion, subject, seed, passthrough):
+    return run(binary, "human", ["--motion", motion, "--scenario", "product", "--subject-seed",
+                                 subject, "--seed", seed] + passthrough)
 
 
 def fit_errors(run_json):
@@ -86,7 +83,7 @@ def main():
     rows = []
     with open(args.out, "w") as out, \
             concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        jobs = [pool.submit(run, args.bin, m, s, seed, passthrough) for m, s, seed in runs]
+        jobs = [pool.submit(run_product, args.bin, m, s, seed, passthrough) for m, s, seed in runs]
         for job in concurrent.futures.as_completed(jobs):
             row = job.result()
             rows.append(row)
