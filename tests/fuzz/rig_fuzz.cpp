@@ -1,5 +1,5 @@
-// Fuzzes the camera rig (calibration) reader, tracker/model/camera.h's loadRig, which reads an
-// OpenCV FileStorage file: each input is written to a scratch file first.
+// Fuzzes the camera rig (calibration) reader, tracker/model/camera.h's loadRig, which reads OpenCV
+// FileStorage YAML with yaml-cpp: each input is written to a scratch file first.
 #include <stdexcept>
 
 #include "tests/fuzz/fuzz_support.h"
@@ -7,7 +7,6 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   static const mocap::fuzz::ScratchDirectory scratch;
-  // FileStorage picks its format by the name: the rig files are YAML.
   const std::string path = scratch.write("rig.yaml", mocap::fuzz::asText(data, size)).string();
   try {
     const mocap::Rig rig = mocap::loadRig(path);

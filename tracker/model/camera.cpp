@@ -1,9 +1,22 @@
-// Camera projection and rig file I/O.
+// Camera projection and rig file I/O: written with OpenCV FileStorage, read with yaml-cpp.
 #include "tracker/model/camera.h"
 
+#include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <optional>
+#include <sstream>
 #include <stdexcept>
+#include <string_view>
+#include <utility>
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/yaml.h>
 #include <opencv2/core.hpp>
 
 namespace mocap {
@@ -87,108 +100,290 @@ void saveRig(const std::string& path, const Rig& rig) {
 
 namespace {
 
-// Any non-empty OpenCV matrix at `node` (OpenCV asserts on a malformed one: named here instead).
-cv::Mat readAnyMatrix(const cv::FileNode& node, const std::string& where) {
-  if (node.empty()) throw std::runtime_error(where + ": missing");
-  // OpenCV allocates rows x cols before it reads the data: more than a rig's matrices hold is
-  // refused first, so a corrupt size cannot ask for gigabytes.
-  constexpr double kMaxValues = 16;
-  cv::Mat m;
-  try {
-    const double values =
-        static_cast<double>(static_cast<int>(node["rows"])) * static_cast<int>(node["cols"]);
-    if (values > kMaxValues)
-      throw std::runtime_error(where + ": " + std::to_string(static_cast<int>(node["rows"])) + "x" +
-                               std::to_string(static_cast<int>(node["cols"])) +
-                               " is larger than any matrix of a rig");
-    node >> m;
-  } catch (const cv::Exception&) {
-    throw std::runtime_error(where + ": not an OpenCV matrix");
+// A number as OpenCV's FileStorage YAML reads it: a plain (unquoted) scalar starting with a digit,
+// a sign or a point; integers in decimal, 0x hexadecimal or 0-prefixed octal; .inf and .nan.
+struct Number {
+  double value = 0;
+  bool is_integer = false;
+};
+
+std::optional<Number> integerNumber(std::string_view text) {
+  const bool negative = text.front() == '-';
+  if (text.front() == '-' || text.front() == '+') text.remove_prefix(1);
+  int base = 10;
+  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) {
+    base = 16;
+    text.remove_prefix(2);
+  } else if (text.size() > 1 && text[0] == '0') {
+    base = 8;
   }
-  if (m.empty()) throw std::runtime_error(where + ": not an OpenCV matrix");
+  if (text.empty() || !std::isxdigit(static_cast<unsigned char>(text[0]))) return std::nullopt;
+  long long magnitude = 0;
+  const auto [end, error] =
+      std::from_chars(text.data(), text.data() + text.size(), magnitude, base);
+  if (error != std::errc() || end != text.data() + text.size()) return std::nullopt;
+  return Number{static_cast<double>(negative ? -magnitude : magnitude), true};
+}
+
+std::optional<Number> readNumber(const YAML::Node& node) {
+  // yaml-cpp tags a quoted scalar "!": OpenCV reads quoted text as a string, never a number.
+  if (!node.IsScalar() || node.Tag() == "!" || node.Scalar().empty()) return std::nullopt;
+  std::string_view text = node.Scalar();
+  const std::string_view unsigned_text = text.substr(text[0] == '-' || text[0] == '+' ? 1 : 0);
+  const auto lower = [](std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return out;
+  };
+  if (lower(unsigned_text) == ".inf") return Number{text[0] == '-' ? -HUGE_VAL : HUGE_VAL, false};
+  if (lower(unsigned_text) == ".nan") return Number{std::nan(""), false};
+  const auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  const bool starts_as_number =
+      digit(unsigned_text.empty() ? ' ' : unsigned_text[0]) ||
+      (unsigned_text.size() > 1 && unsigned_text[0] == '.' && digit(unsigned_text[1]));
+  if (!starts_as_number) return std::nullopt;
+  if (const std::optional<Number> integer = integerNumber(text)) return integer;
+  if (unsigned_text.find_first_not_of("0123456789.eE+-") != std::string_view::npos)
+    return std::nullopt;
+  if (text[0] == '+') text.remove_prefix(1);
+  double value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (end != text.data() + text.size()) return std::nullopt;
+  // Beyond a double's range: infinity, zero or a subnormal, as OpenCV (strtod) reads it.
+  if (error == std::errc::result_out_of_range)
+    value = std::strtod(std::string(text).c_str(), nullptr);
+  else if (error != std::errc())
+    return std::nullopt;
+  return Number{value, false};
+}
+
+// A matrix of a rig file, its values in row order.
+struct Matrix {
+  int rows = 0;
+  int cols = 0;
+  std::vector<double> values;
+};
+
+// `value` stored as an element of OpenCV type `dt` (one of "ucwsifdh"), as OpenCV reads it:
+// integers rounded and saturated, floats rounded to their precision.
+double storedAs(char dt, double value) {
+  const auto to_float = [](double v) {
+    return std::isfinite(v) && std::abs(v) > std::numeric_limits<float>::max()
+               ? std::copysign(std::numeric_limits<float>::infinity(), v)
+               : static_cast<float>(v);
+  };
+  switch (dt) {
+    case 'u':
+      return cv::saturate_cast<uchar>(value);
+    case 'c':
+      return cv::saturate_cast<schar>(value);
+    case 'w':
+      return cv::saturate_cast<ushort>(value);
+    case 's':
+      return cv::saturate_cast<short>(value);
+    case 'i':
+      return cv::saturate_cast<int>(value);
+    case 'f':
+      return to_float(value);
+    case 'h':
+      return static_cast<float>(cv::float16_t(to_float(value)));
+    default:
+      return value;
+  }
+}
+
+// The size OpenCV gives a matrix map: rows and cols, or (rows absent or negative) `sizes` of one
+// or two dimensions. Reals are rounded as OpenCV rounds them.
+std::pair<int, int> matrixSize(const YAML::Node& node, const std::string& where) {
+  const auto dimension = [&](const YAML::Node& field, const char* name) {
+    if (!field) return -1;
+    const std::optional<Number> n = readNumber(field);
+    if (!n) throw std::runtime_error(where + ": not an OpenCV matrix: " + name + " not a number");
+    return cv::saturate_cast<int>(n->value);
+  };
+  const int rows = dimension(node["rows"], "rows");
+  if (rows >= 0) return {rows, dimension(node["cols"], "cols")};
+  const YAML::Node sizes = node["sizes"];
+  if (sizes && sizes.IsScalar()) return {dimension(sizes, "sizes"), 1};
+  if (!sizes || !sizes.IsSequence() || sizes.size() < 1 || sizes.size() > 2)
+    throw std::runtime_error(where + ": not an OpenCV matrix: no rows, or sizes of 1 or 2 values");
+  return {dimension(sizes[0], "sizes"), sizes.size() == 2 ? dimension(sizes[1], "sizes") : 1};
+}
+
+// Any non-empty single-channel OpenCV matrix (rows, cols, dt, data) at `node`.
+Matrix readAnyMatrix(const YAML::Node& node, const std::string& where) {
+  if (!node) throw std::runtime_error(where + ": missing");
+  if (!node.IsMap()) throw std::runtime_error(where + ": not an OpenCV matrix: not a map");
+  const auto [rows, cols] = matrixSize(node, where);
+  // A corrupt size must not ask for gigabytes: more than a rig's matrices hold is refused first.
+  constexpr double kMaxValues = 16;
+  if (static_cast<double>(rows) * cols > kMaxValues)
+    throw std::runtime_error(where + ": " + std::to_string(rows) + "x" + std::to_string(cols) +
+                             " is larger than any matrix of a rig");
+  if (rows <= 0 || cols <= 0)
+    throw std::runtime_error(where + ": not an OpenCV matrix: size " + std::to_string(rows) + "x" +
+                             std::to_string(cols));
+  const YAML::Node dt = node["dt"];
+  const std::string type = dt && dt.IsScalar() ? dt.Scalar() : "";
+  const std::string_view element = std::string_view(type).substr(type.starts_with('1') ? 1 : 0);
+  if (element.size() != 1 || std::string_view("ucwsifdh").find(element[0]) == std::string::npos)
+    throw std::runtime_error(where + ": not an OpenCV matrix: dt '" + type +
+                             "' is not one of u c w s i f d h");
+  const YAML::Node data = node["data"];
+  const std::size_t count = !data ? 0 : data.IsSequence() ? data.size() : data.IsScalar() ? 1 : 0;
+  if (count != static_cast<std::size_t>(rows * cols))
+    throw std::runtime_error(where + ": not an OpenCV matrix: data holds " + std::to_string(count) +
+                             " values for " + std::to_string(rows) + "x" + std::to_string(cols));
+  Matrix m{rows, cols, {}};
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::optional<Number> n = readNumber(data.IsSequence() ? data[i] : data);
+    if (!n)
+      throw std::runtime_error(where + ": not an OpenCV matrix: data[" + std::to_string(i) +
+                               "] is not a number");
+    m.values.push_back(storedAs(element[0], n->value));
+  }
   return m;
 }
 
-cv::Mat readMatrix(const cv::FileNode& node, const std::string& where, int rows, int cols) {
-  cv::Mat m = readAnyMatrix(node, where);
-  if (m.total() != static_cast<std::size_t>(rows * cols) || (m.rows != rows && m.cols != rows)) {
+Matrix readMatrix(const YAML::Node& node, const std::string& where, int rows, int cols) {
+  Matrix m = readAnyMatrix(node, where);
+  // A column where a row belongs (or the reverse) holds the same values in the same order.
+  if (m.values.size() != static_cast<std::size_t>(rows * cols) ||
+      (m.rows != rows && m.cols != rows))
     throw std::runtime_error(where + ": expected " + std::to_string(rows) + "x" +
                              std::to_string(cols) + ", got " + std::to_string(m.rows) + "x" +
                              std::to_string(m.cols));
-  }
-  m.convertTo(m, CV_64F);
-  return m.reshape(1, rows);
+  return m;
 }
 
-int readPositiveInt(const cv::FileNode& node, const std::string& where) {
-  if (node.empty() || !node.isInt())
+int readPositiveInt(const YAML::Node& node, const std::string& where) {
+  const std::optional<Number> n = node ? readNumber(node) : std::nullopt;
+  if (!n || !n->is_integer || n->value < std::numeric_limits<int>::min() ||
+      n->value > std::numeric_limits<int>::max())
     throw std::runtime_error(where + ": missing or not an integer");
-  const int v = static_cast<int>(node);
+  const int v = static_cast<int>(n->value);
   if (v <= 0) throw std::runtime_error(where + ": must be positive, got " + std::to_string(v));
   return v;
 }
 
-Rig readRig(const cv::FileStorage& fs, const std::string& path) {
-  const int count = readPositiveInt(fs["camera_count"], path + ": camera_count");
+// A camera's name as OpenCV read it. yaml-cpp reads "~" and "null" (which saveRig writes
+// unquoted) as null, so those words come from the text; a list or a map was read as empty text.
+std::string cameraName(const YAML::Node& name, const std::string& key, std::string_view text) {
+  if (!name) return key;
+  if (name.IsScalar()) return name.Scalar();
+  if (!name.IsNull()) return "";
+  const int pos = name.Mark().pos;
+  const std::string_view rest =
+      pos >= 0 && pos < static_cast<int>(text.size()) ? text.substr(pos) : "";
+  for (const std::string_view word : {"~", "null", "Null", "NULL"})
+    if (rest.starts_with(word)) return std::string(word);
+  return key;
+}
+
+CameraModel readCamera(const YAML::Node& node, const std::string& key, const std::string& where,
+                       std::string_view text) {
+  CameraModel c;
+  c.name = cameraName(node["name"], key, text);
+  c.width = readPositiveInt(node["image_width"], where + ".image_width");
+  c.height = readPositiveInt(node["image_height"], where + ".image_height");
+  const Matrix k = readMatrix(node["camera_matrix"], where + ".camera_matrix", 3, 3);
+  c.fx = k.values[0];
+  c.fy = k.values[4];
+  c.cx = k.values[2];
+  c.cy = k.values[5];
+  if (c.fx <= 0 || c.fy <= 0)
+    throw std::runtime_error(where + ".camera_matrix: focal lengths must be positive");
+  if (const YAML::Node dist = node["distortion_coefficients"]) {
+    const Matrix d = readAnyMatrix(dist, where + ".distortion_coefficients");
+    if (d.values.size() < 4 || d.values.size() > 5)
+      throw std::runtime_error(where + ".distortion_coefficients: expected 4 or 5 values");
+    std::copy(d.values.begin(), d.values.end(), c.distortion.begin());
+  }
+  const Matrix r = readMatrix(node["R"], where + ".R", 3, 3);
+  const Matrix t = readMatrix(node["T"], where + ".T", 3, 1);
+  for (int a = 0; a < 3; ++a) {
+    c.translation[a] = t.values[a];
+    for (int b = 0; b < 3; ++b) c.rotation(a, b) = r.values[3 * a + b];
+  }
+  const double orthogonality =
+      (c.rotation * c.rotation.transpose() - Eigen::Matrix3d::Identity()).norm();
+  if (orthogonality > 1e-4 || c.rotation.determinant() < 0)
+    throw std::runtime_error(where + ".R: not a rotation matrix");
+  return c;
+}
+
+Rig readRig(const YAML::Node& root, const std::string& path, std::string_view text) {
+  if (!root.IsMap() && !root.IsNull())
+    throw std::runtime_error(path + ": not a camera rig: the top level is not a map");
+  const int count = readPositiveInt(root["camera_count"], path + ": camera_count");
   Rig rig;
   for (int i = 0; i < count; ++i) {
     const std::string key = "camera_" + std::to_string(i);
-    const std::string where = path + ": " + key;
-    cv::FileNode node = fs[key];
-    if (node.empty() || !node.isMap()) throw std::runtime_error(where + ": missing");
-    CameraModel c;
-    c.name = node["name"].empty() ? key : static_cast<std::string>(node["name"]);
-    c.width = readPositiveInt(node["image_width"], where + ".image_width");
-    c.height = readPositiveInt(node["image_height"], where + ".image_height");
-    cv::Mat k = readMatrix(node["camera_matrix"], where + ".camera_matrix", 3, 3);
-    c.fx = k.at<double>(0, 0);
-    c.fy = k.at<double>(1, 1);
-    c.cx = k.at<double>(0, 2);
-    c.cy = k.at<double>(1, 2);
-    if (c.fx <= 0 || c.fy <= 0)
-      throw std::runtime_error(where + ".camera_matrix: focal lengths must be positive");
-    if (!node["distortion_coefficients"].empty()) {
-      cv::Mat d =
-          readAnyMatrix(node["distortion_coefficients"], where + ".distortion_coefficients");
-      if (d.total() < 4 || d.total() > 5)
-        throw std::runtime_error(where + ".distortion_coefficients: expected 4 or 5 values");
-      d.convertTo(d, CV_64F);
-      for (std::size_t j = 0; j < d.total(); ++j)
-        c.distortion[j] = d.at<double>(static_cast<int>(j));
-    }
-    cv::Mat r = readMatrix(node["R"], where + ".R", 3, 3);
-    cv::Mat t = readMatrix(node["T"], where + ".T", 3, 1);
-    for (int a = 0; a < 3; ++a) {
-      c.translation[a] = t.at<double>(a);
-      for (int b = 0; b < 3; ++b) c.rotation(a, b) = r.at<double>(a, b);
-    }
-    const double orthogonality =
-        (c.rotation * c.rotation.transpose() - Eigen::Matrix3d::Identity()).norm();
-    if (orthogonality > 1e-4 || c.rotation.determinant() < 0)
-      throw std::runtime_error(where + ".R: not a rotation matrix");
-    rig.push_back(c);
+    const YAML::Node node = root[key];
+    if (!node || !node.IsMap()) throw std::runtime_error(path + ": " + key + ": missing");
+    rig.push_back(readCamera(node, key, path + ": " + key, text));
   }
   return rig;
 }
 
+// The text of an OpenCV FileStorage YAML file (first line "%YAML:1.x" or "%YAML 1.x", which
+// yaml-cpp does not take, so it is blanked: line numbers stay) or JSON, ready for yaml-cpp.
+std::string yamlText(std::string text, const std::string& path) {
+  if (text.starts_with("%YAML:1.") || text.starts_with("%YAML 1."))
+    text.erase(0, std::min(text.find('\n'), text.size()));
+  else if (text.starts_with("<?xml"))
+    throw std::runtime_error(path + ": OpenCV FileStorage XML is not read; write the rig as YAML");
+  else if (!text.starts_with("{"))
+    throw std::runtime_error(path +
+                             ": not an OpenCV FileStorage YAML file (the first line must be "
+                             "%YAML:1.0)");
+  return text;
+}
+
+// How many YAML documents `text` holds, counting to two at most. (yaml-cpp's LoadAll never ends on
+// some text: a stray ',' at the top level is read as one empty document after another.)
+int documentCount(const std::string& text) {
+  struct Ignore : YAML::EventHandler {
+    void OnDocumentStart(const YAML::Mark&) override {}
+    void OnDocumentEnd() override {}
+    void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+    void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  const std::string&) override {}
+    void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                         YAML::EmitterStyle::value) override {}
+    void OnSequenceEnd() override {}
+    void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                    YAML::EmitterStyle::value) override {}
+    void OnMapEnd() override {}
+  } ignore;
+  std::istringstream stream(text);
+  YAML::Parser parser(stream);
+  int count = 0;
+  while (count < 2 && parser.HandleNextDocument(ignore)) ++count;
+  return count;
+}
+
 }  // namespace
 
+// Read with yaml-cpp: OpenCV 4.6's own YAML parser never returns on some malformed files.
 Rig loadRig(const std::string& path) {
-  cv::FileStorage fs;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open camera rig file");
+  const std::string text =
+      yamlText({std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()}, path);
+  YAML::Node root;
   try {
-    fs.open(path, cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error(path + ": not a readable OpenCV FileStorage file: " + e.err);
-  } catch (const std::exception& e) {
-    // OpenCV's YAML parser lets some malformed text out as std::length_error.
-    throw std::runtime_error(path + ": not a readable OpenCV FileStorage file: " + e.what());
+    root = YAML::Load(text);
+    if (documentCount(text) > 1)
+      throw std::runtime_error(path + ": not a camera rig: text after the first YAML document");
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": not a readable YAML file: " + e.what());
   }
-  if (!fs.isOpened()) throw std::runtime_error(path + ": cannot open camera rig file");
-  // OpenCV asserts on a file of another shape (a list or a scalar where a map belongs): named here.
   try {
-    return readRig(fs, path);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error(path + ": not a camera rig: " + e.err);
+    return readRig(root, path, text);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": not a camera rig: " + e.what());
   }
 }
 

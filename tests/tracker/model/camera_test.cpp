@@ -1,4 +1,5 @@
-// Camera projection against OpenCV's projectPoints, and rig files against OpenCV's own reader.
+// Camera projection against OpenCV's projectPoints, and rig files against OpenCV's own reader and
+// in the forms it read.
 #include "tracker/model/camera.h"
 
 #include <gmock/gmock.h>
@@ -109,6 +110,39 @@ TEST(Camera, RigRoundTripIsReadableByOpenCv) {
   EXPECT_TRUE(back[1].translation.isApprox(rig[1].translation, 1e-12));
 }
 
+TEST(Camera, RigRoundTripKeepsNamesYamlWouldReadAsOtherValues) {
+  Rig rig;
+  for (const char* name : {"null", "~", "NULL", "5", "true", "cam #1", "a: b", "-x", ""})
+    rig.push_back(CameraModel::lookAt(name, Eigen::Vector3d(0, -3, 1), Eigen::Vector3d(0, 0, 1),
+                                      Eigen::Vector3d::UnitZ(), 640, 480, 700));
+  const std::string path = tempPath("names.yaml");
+  saveRig(path, rig);
+  const Rig back = loadRig(path);
+  ASSERT_EQ(back.size(), rig.size());
+  for (std::size_t i = 0; i < rig.size(); ++i) EXPECT_EQ(back[i].name, rig[i].name);
+}
+
+// Forms OpenCV's reader took beyond what saveRig writes: "%YAML 1.0", untagged and flow matrices,
+// integer and float elements, a translation in a row, a size given as `sizes`, no name.
+TEST(Camera, RigFilesInOtherOpenCvFormsLoad) {
+  const std::string path = tempPath("other_forms.yaml");
+  std::ofstream(path)
+      << "%YAML 1.0\n---\ncamera_count: 1\ncamera_0:\n  image_width: 640\n  image_height: 0x1E0\n"
+         "  camera_matrix: {rows: 3, cols: 3, dt: i, data: [800.4, 0, 320, 0, 801, 240, 0, 0, 1]}\n"
+         "  distortion_coefficients: !!opencv-matrix {rows: 1, cols: 4, dt: f, data: [0.1, 0, 0, "
+         "-.5]}\n"
+         "  R: !!opencv-nd-matrix {sizes: [3, 3], dt: d, data: [1, 0, 0, 0, 1, 0, 0, 0, 1]}\n"
+         "  T: {rows: 1, cols: 3, dt: d, data: [0.5, -0.25, 2e0]}\n";
+  const Rig rig = loadRig(path);
+  ASSERT_EQ(rig.size(), 1u);
+  EXPECT_EQ(rig[0].name, "camera_0");
+  EXPECT_EQ(rig[0].height, 480);
+  EXPECT_EQ(rig[0].fx, 800);  // rounded to the integer type, as OpenCV does
+  EXPECT_EQ(rig[0].fy, 801);
+  EXPECT_EQ(rig[0].distortion, (std::array<double, 5>{static_cast<double>(0.1f), 0, 0, -0.5, 0}));
+  EXPECT_EQ(rig[0].translation, Eigen::Vector3d(0.5, -0.25, 2));
+}
+
 std::string loadError(const std::string& text) {
   const std::string path = tempPath("bad_rig.yaml");
   std::ofstream(path) << text;
@@ -138,12 +172,31 @@ TEST(Camera, BadRigFilesAreRefusedWithTheField) {
   bad.replace(bad.find("R:"), 2, "Q:");
   EXPECT_THAT(loadError(bad), HasSubstr("camera_0.R: missing"));
 
-  // A matrix without its element type: OpenCV asserts while reading it, named here instead.
   bad = good;
   const std::size_t distortion = bad.find("distortion_coefficients");
   bad.erase(bad.find("dt: d", distortion), 5);
   EXPECT_THAT(loadError(bad), HasSubstr("camera_0.distortion_coefficients: not an OpenCV matrix"));
 
+  bad = good;
+  bad.replace(bad.find("0., 0., 1. ]"), 12, "0., zero, 1. ]");
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_0.camera_matrix: not an OpenCV matrix: data[7]"));
+
+  bad = good;
+  bad.replace(bad.find("image_height: 580"), 17, "image_height: \"580\"");  // text, not a number
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_0.image_height: missing or not an integer"));
+
+  bad = good;
+  bad.replace(bad.find("camera_count: 1"), 15, "camera_count: 4294967297");  // no wrapping to 1
+  EXPECT_THAT(loadError(bad), HasSubstr("camera_count: missing or not an integer"));
+
+  EXPECT_THAT(loadError(good + "---\ncamera_count: 1\n"),
+              HasSubstr("text after the first YAML document"));
+  EXPECT_THAT(loadError(good.substr(good.find('\n') + 1)),
+              HasSubstr("the first line must be %YAML:1.0"));
+  EXPECT_THAT(loadError("<?xml version=\"1.0\"?>\n<opencv_storage/>\n"),
+              HasSubstr("XML is not read"));
+  EXPECT_THAT(loadError("%YAML:1.0\n---\ncamera_count: 1\ncamera_0: [\n"),
+              HasSubstr("bad_rig.yaml: not a readable YAML file: yaml-cpp: error at line 5"));
   EXPECT_THAT(loadError("%YAML:1.0\n---\nfoo: 1\n"), HasSubstr("camera_count: missing"));
   EXPECT_THROW(loadRig("/nonexistent/rig.yaml"), std::runtime_error);
 }
