@@ -10,6 +10,7 @@
 #include <iterator>
 #include <limits>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
@@ -77,7 +78,53 @@ CameraModel CameraModel::lookAt(const std::string& name, const Eigen::Vector3d& 
   return cam;
 }
 
+namespace {
+
+void requireFinite(std::span<const double> values, const std::string& where) {
+  if (!std::ranges::all_of(values, [](double v) { return std::isfinite(v); }))
+    throw std::runtime_error(where + ": not a finite number");
+}
+
+// The longest string OpenCV's FileStorage writes (CV_FS_MAX_LEN); longer ones throw cv::Exception.
+constexpr std::size_t kMaxWrittenString = 4096;
+
+// `text` as a YAML double-quoted scalar. OpenCV's writer would take a name starting with '[' or '{'
+// as the start of a structure, drop trailing spaces and the quotes of a name already in quotes;
+// text in double quotes it writes as it is.
+std::string yamlQuoted(std::string_view text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      constexpr std::string_view kHex = "0123456789abcdef";
+      out += "\\x";
+      out += kHex[static_cast<unsigned char>(c) >> 4];
+      out += kHex[c & 0xf];
+    } else {
+      out += c;  // UTF-8 bytes as they are: "\x" would name a code point, not a byte
+    }
+  }
+  return out + '"';
+}
+
+// Refuses what saveRig cannot write so that loadRig reads it back, before the file is opened.
+void checkWritable(const CameraModel& c, const std::string& where) {
+  if (yamlQuoted(c.name).size() > kMaxWrittenString)
+    throw std::runtime_error(where + ".name: " + std::to_string(c.name.size()) +
+                             " bytes, too long for a rig file");
+  requireFinite(std::array{c.fx, c.fy, c.cx, c.cy}, where + ".camera_matrix");
+  requireFinite(c.distortion, where + ".distortion_coefficients");
+  requireFinite({c.rotation.data(), 9}, where + ".R");
+  requireFinite({c.translation.data(), 3}, where + ".T");
+}
+
+}  // namespace
+
 void saveRig(const std::string& path, const Rig& rig) {
+  for (std::size_t i = 0; i < rig.size(); ++i)
+    checkWritable(rig[i], path + ": camera_" + std::to_string(i));
   cv::FileStorage fs(path, cv::FileStorage::WRITE);
   if (!fs.isOpened()) throw std::runtime_error(path + ": cannot open for writing");
   fs << "camera_count" << static_cast<int>(rig.size());
@@ -92,7 +139,7 @@ void saveRig(const std::string& path, const Rig& rig) {
       for (int b = 0; b < 3; ++b) r.at<double>(a, b) = c.rotation(a, b);
     }
     fs << "camera_" + std::to_string(i) << "{";
-    fs << "name" << c.name << "image_width" << c.width << "image_height" << c.height;
+    fs << "name" << yamlQuoted(c.name) << "image_width" << c.width << "image_height" << c.height;
     fs << "camera_matrix" << k << "distortion_coefficients" << dist << "R" << r << "T" << t;
     fs << "}";
   }
@@ -291,16 +338,20 @@ CameraModel readCamera(const YAML::Node& node, const std::string& key, const std
   c.fy = k.values[4];
   c.cx = k.values[2];
   c.cy = k.values[5];
+  requireFinite(k.values, where + ".camera_matrix");
   if (c.fx <= 0 || c.fy <= 0)
     throw std::runtime_error(where + ".camera_matrix: focal lengths must be positive");
   if (const YAML::Node dist = node["distortion_coefficients"]) {
     const Matrix d = readAnyMatrix(dist, where + ".distortion_coefficients");
     if (d.values.size() < 4 || d.values.size() > 5)
       throw std::runtime_error(where + ".distortion_coefficients: expected 4 or 5 values");
+    requireFinite(d.values, where + ".distortion_coefficients");
     std::copy(d.values.begin(), d.values.end(), c.distortion.begin());
   }
   const Matrix r = readMatrix(node["R"], where + ".R", 3, 3);
   const Matrix t = readMatrix(node["T"], where + ".T", 3, 1);
+  requireFinite(r.values, where + ".R");
+  requireFinite(t.values, where + ".T");
   for (int a = 0; a < 3; ++a) {
     c.translation[a] = t.values[a];
     for (int b = 0; b < 3; ++b) c.rotation(a, b) = r.values[3 * a + b];

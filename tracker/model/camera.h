@@ -47,7 +47,9 @@ using Rig = std::vector<CameraModel>;
 
 // Writes/reads a rig: camera_count, then camera_<i> maps with name, image_width, image_height,
 // camera_matrix (3x3), distortion_coefficients (5x1), R (3x3, world -> camera), T (3x1, metres).
-// loadRig throws std::runtime_error naming the file, camera and field on bad input.
+// loadRig throws std::runtime_error naming the file, camera and field on bad input, a value that is
+// not finite included. saveRig writes any name so that loadRig reads it back, up to about 4 KB, and
+// throws std::runtime_error, writing nothing, for a longer name or a value that is not finite.
 void saveRig(const std::string& path, const Rig& rig);
 Rig loadRig(const std::string& path);
 

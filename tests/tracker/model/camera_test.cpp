@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include <opencv2/calib3d.hpp>
@@ -110,9 +112,15 @@ TEST(Camera, RigRoundTripIsReadableByOpenCv) {
   EXPECT_TRUE(back[1].translation.isApprox(rig[1].translation, 1e-12));
 }
 
-TEST(Camera, RigRoundTripKeepsNamesYamlWouldReadAsOtherValues) {
+// Names YAML would read as other values, OpenCV's writer as structures ("[", "{") or without their
+// quotes or trailing spaces, and the longest name a rig file holds.
+TEST(Camera, RigRoundTripKeepsNamesYamlOrOpenCvWouldReadOtherwise) {
   Rig rig;
-  for (const char* name : {"null", "~", "NULL", "5", "true", "cam #1", "a: b", "-x", ""})
+  std::vector<std::string> names = {"null", "~", "NULL", "5", "true", "cam #1", "a: b", "-x", ""};
+  names.insert(names.end(),
+               {"[a", "{b}", "]c", "}", "\\{e", "'q'", "\"q\"", "trail ", "back\\slash"});
+  names.insert(names.end(), {"tab\tnew\nline\x01", "caf\xc3\xa9", std::string(4094, 'x')});
+  for (const std::string& name : names)
     rig.push_back(CameraModel::lookAt(name, Eigen::Vector3d(0, -3, 1), Eigen::Vector3d(0, 0, 1),
                                       Eigen::Vector3d::UnitZ(), 640, 480, 700));
   const std::string path = tempPath("names.yaml");
@@ -141,6 +149,39 @@ TEST(Camera, RigFilesInOtherOpenCvFormsLoad) {
   EXPECT_EQ(rig[0].fy, 801);
   EXPECT_EQ(rig[0].distortion, (std::array<double, 5>{static_cast<double>(0.1f), 0, 0, -0.5, 0}));
   EXPECT_EQ(rig[0].translation, Eigen::Vector3d(0.5, -0.25, 2));
+}
+
+// saveRig's message for `rig`, which must not leave a file behind.
+std::string saveError(const Rig& rig) {
+  const std::string path = tempPath("refused_rig.yaml");
+  std::filesystem::remove(path);
+  try {
+    saveRig(path, rig);
+  } catch (const std::runtime_error& e) {
+    EXPECT_FALSE(std::filesystem::exists(path)) << "a file was written for " << e.what();
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Camera, RigsThatWouldNotLoadBackAreNotWritten) {
+  constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  CameraModel c = distortedCamera();
+  c.fx = kInf;
+  EXPECT_THAT(saveError({c}), HasSubstr("refused_rig.yaml: camera_0.camera_matrix: not a finite"));
+  c = distortedCamera();
+  c.distortion[4] = kNan;
+  EXPECT_THAT(saveError({c}), HasSubstr("camera_0.distortion_coefficients: not a finite number"));
+  c = distortedCamera();
+  c.rotation(1, 2) = kNan;
+  EXPECT_THAT(saveError({distortedCamera(), c}), HasSubstr("camera_1.R: not a finite number"));
+  c = distortedCamera();
+  c.translation.z() = -kInf;
+  EXPECT_THAT(saveError({c}), HasSubstr("camera_0.T: not a finite number"));
+  c = distortedCamera();
+  c.name = std::string(4095, 'x');  // quoted, one byte more than OpenCV writes
+  EXPECT_THAT(saveError({c}), HasSubstr("camera_0.name: 4095 bytes, too long for a rig file"));
 }
 
 std::string loadError(const std::string& text) {
@@ -188,6 +229,19 @@ TEST(Camera, BadRigFilesAreRefusedWithTheField) {
   bad = good;
   bad.replace(bad.find("camera_count: 1"), 15, "camera_count: 4294967297");  // no wrapping to 1
   EXPECT_THAT(loadError(bad), HasSubstr("camera_count: missing or not an integer"));
+
+  // Not-a-number and infinity, as OpenCV writes them, where the range checks do not see them.
+  const auto withFirstValue = [&good](const std::string& field, const std::string& value) {
+    std::string text = good;
+    const std::size_t data = text.find("data: [ ", text.find(field + ":")) + 8;
+    return text.replace(data, text.find(',', data) - data, value);
+  };
+  EXPECT_THAT(loadError(withFirstValue("camera_matrix", ".Nan")),
+              HasSubstr("bad_rig.yaml: camera_0.camera_matrix: not a finite number"));
+  EXPECT_THAT(loadError(withFirstValue("distortion_coefficients", "-.Inf")),
+              HasSubstr("camera_0.distortion_coefficients: not a finite number"));
+  EXPECT_THAT(loadError(withFirstValue("R", ".nan")), HasSubstr("camera_0.R: not a finite number"));
+  EXPECT_THAT(loadError(withFirstValue("T", ".Inf")), HasSubstr("camera_0.T: not a finite number"));
 
   EXPECT_THAT(loadError(good + "---\ncamera_count: 1\n"),
               HasSubstr("text after the first YAML document"));
