@@ -155,7 +155,8 @@ class ConfigParser : public ConfigReader {
   // The keys of a `tracker:` map, over the settings in `t`: the daemon's own, then the filter's
   // (their table, tracker/filters/filter_options.h).
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
-    std::set<std::string> keys = {"method", "threads", "dofs", "start", "lost_below", "lost_after"};
+    std::set<std::string> keys = {"method", "threads", "dofs", "start", "lost_below", "lost_after",
+                                  "challenge_every"};
     for (const FilterOptionKey& option : filterOptionKeys()) keys.insert(option.key);
     onlyKeys(tracker, "tracker", keys);
     if (tracker["method"]) {
@@ -191,6 +192,9 @@ class ConfigParser : public ConfigReader {
       t.lost_below = number(tracker["lost_below"], "tracker.lost_below", 0, 0.99);
     if (tracker["lost_after"])
       t.lost_after = integer(tracker["lost_after"], "tracker.lost_after", 1, 10'000);
+    if (tracker["challenge_every"])
+      t.challenge_every =
+          integer(tracker["challenge_every"], "tracker.challenge_every", 0, 1'000'000);
   }
 
   // `web: {listen: HOST:PORT, enabled: BOOL}`.
@@ -531,7 +535,8 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
   keys.insert(keys.end(), {{"dofs", dofs},
                            {"start", start},
                            {"lost_below", shortestText(lost_below)},
-                           {"lost_after", std::to_string(lost_after)}});
+                           {"lost_after", std::to_string(lost_after)},
+                           {"challenge_every", std::to_string(challenge_every)}});
   return keys;
 }
 

@@ -47,6 +47,9 @@ struct TrackerSettings {
   // the subject is then found again. 0: never.
   double lost_below = 0;
   int lost_after = 5;
+  // Every so many frame sets, the subject is found again and the hypotheses tried against the
+  // track (AcquiringOptions::challenge_every); 0: never.
+  int challenge_every = 0;
 
   // The defaults when the tracked body is a person (body_model: builtin:human, a model file with
   // `kind: person`, or a scene_motion): humanFilterDefaults() at kHumanEvaluations. Keys under

@@ -124,6 +124,7 @@ void Pipeline::makeTrackerFilter(bool in_fit_pose) {
     AcquiringOptions acquiring_options;
     acquiring_options.lost_below = config_.tracker.lost_below;
     acquiring_options.lost_after = config_.tracker.lost_after;
+    acquiring_options.challenge_every = config_.tracker.challenge_every;
     const BodyModel& body = *body_.model;
     std::vector<Eigen::VectorXd> stances = acquisitionStances(body);
     if (in_fit_pose && body.fit_pose) stances.push_back(body.stancePose(*body.fit_pose));

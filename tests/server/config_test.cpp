@@ -179,6 +179,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
       true;  // not the people default: must come back from the session
   recorded.filter.refine.max_evaluations = 30;                               // likewise
   recorded.filter.refine.unexplained = !recorded.filter.refine.unexplained;  // likewise
+  recorded.challenge_every = 25;                                             // likewise
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
 
   // A configuration without tracker keys: the session's settings, the configuration's threads.
@@ -199,6 +200,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_EQ(as_recorded.filter.refine.max_evaluations, 30);
   EXPECT_EQ(as_recorded.filter.refine.unexplained, recorded.filter.refine.unexplained);
   EXPECT_EQ(as_recorded.dofs, "gait");
+  EXPECT_EQ(as_recorded.challenge_every, 25);
   EXPECT_EQ(as_recorded.threads, 1);
 
   // Keys the configuration sets itself win.
@@ -257,6 +259,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
        "tracker.start: expected auto, acquire or neutral, got 'somewhere'"},
       {cameras + "tracker: {lost_below: 1}\n", "tracker.lost_below: must be between 0 and 0.99"},
       {cameras + "tracker: {lost_after: 0}\n", "tracker.lost_after: must be between 1 and"},
+      {cameras + "tracker: {challenge_every: -1}\n",
+       "tracker.challenge_every: must be between 0 and"},
       {cameras + "listen: nowhere\n", "test.yaml:3: listen:"},
       {cameras + "listen: {host: 127.0.0.1}\n",
        "test.yaml:3: listen: expected a non-empty string, got a map"},

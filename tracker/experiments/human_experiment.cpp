@@ -209,10 +209,12 @@ TrackerUnderTest makeTracker(const HumanExperimentConfig& config, const BodyMode
   const auto makeTrackerFilter = [&] {
     return makeFilter(config.method, tracked, rig, options, pool);
   };
-  if (config.start_offset != "acquire" && !config.lost_below) return {makeTrackerFilter()};
+  if (config.start_offset != "acquire" && !config.lost_below && config.challenge_every == 0)
+    return {makeTrackerFilter()};
   AcquiringOptions acquiring_options;
   acquiring_options.lost_below = config.lost_below.value_or(0);
   acquiring_options.lost_after = config.lost_after;
+  acquiring_options.challenge_every = config.challenge_every;
   auto acquiring =
       std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
                                         options.likelihood, makeTrackerFilter, acquiring_options);
@@ -417,6 +419,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     out["lost_below"] = config.lost_below.value_or(0);
     out["lost_after"] = config.lost_after;
     out["losses"] = tracker.acquiring->losses();
+    out["challenge_every"] = config.challenge_every;
   }
   return out;
 }
@@ -458,6 +461,7 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
   if (args.has("lost-below")) config.lost_below = args.real("lost-below", 0.0, 0.0, 0.99);
   config.lost_after = static_cast<int>(args.integer("lost-after", config.lost_after, 1, 1'000'000));
+  config.challenge_every = static_cast<int>(args.integer("challenge-every", 0, 0, 1'000'000));
   config.dropout_at = static_cast<int>(args.integer("dropout-at", 0, 0, 1'000'000));
   config.dropout_frames = static_cast<int>(args.integer("dropout-frames", 0, 0, 1'000'000));
   config.model_path = args.text("model", "");

@@ -86,6 +86,9 @@ struct HumanExperimentConfig {
   // (lost_below 0: only the former), for lost_after frames. Unset: no detection (the paper).
   std::optional<double> lost_below;
   int lost_after = 5;
+  // AcquiringOptions::challenge_every (0: never): the subject acquired again every so many frames
+  // and the new hypotheses tried against the track.
+  int challenge_every = 0;
   // The subject out of view: every camera's silhouette empty for dropout_frames frames from
   // frame dropout_at (the truth still moves and is still scored).
   int dropout_at = 0;

@@ -297,6 +297,8 @@ AcquiringFilter::AcquiringFilter(const BodyModel& model, const Rig& rig,
     throw std::invalid_argument("acquisition: the lost fit ratio must be in [0, 1)");
   if (options.lost_after < 1)
     throw std::invalid_argument("acquisition: frames before the tracker is lost must be >= 1");
+  if (options.challenge_every < 0)
+    throw std::invalid_argument("acquisition: frames between challenges must be >= 0");
 }
 
 std::string AcquiringFilter::name() const {
@@ -315,6 +317,7 @@ void AcquiringFilter::reset(const Eigen::VectorXd& q0) {
   hypotheses_.push_back(newHypothesis(q0));
   searching_ = false;
   trial_frames_left_ = 0;
+  steps_ = 0;
   recent_fits_.clear();
   low_fit_frames_ = 0;
 }
@@ -332,6 +335,10 @@ void AcquiringFilter::setYield(std::function<bool()> newer_frame_waiting) {
 
 FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   long acquisition_evaluations = 0;
+  ++steps_;
+  if (options_.challenge_every > 0 && steps_ % options_.challenge_every == 0 && !searching_ &&
+      hypotheses_.size() == 1)
+    searching_ = true;
   if (searching_) {
     const std::vector<Acquisition> found =
         acquireSubject(model_, rig_, masks, stances_, likelihood_, options_.search, &last_failure_);

@@ -76,6 +76,13 @@ struct AcquiringOptions {
   // the silhouettes (about 0.97 clean and synthetic, 0.70 with shadows and holes).
   double lost_below = 0;
   int lost_after = 5;
+  // Every `challenge_every` frames (0: never) that find one track decided, the subject is acquired
+  // again while the track goes on, and the new hypotheses are tried against it as after a loss (the track first,
+  // so it wins ties). A track that has settled on a wrong pose that still fits (turned round, the
+  // legs exchanged, a leg inside the other's silhouette) is not lost by its fit, and nothing else
+  // would replace it. It costs an acquisition and, for trial_frames frames, a filter per
+  // hypothesis.
+  int challenge_every = 0;
   AcquireOptions search;
 };
 
@@ -87,7 +94,8 @@ struct AcquiringOptions {
 // again. reset(q0) starts from a known pose instead, with no acquisition. Every estimate carries
 // its silhouetteFit (one more full-body evaluation, counted); once the tracker is lost, the
 // filter it was tracking with stays one of the hypotheses of the acquisition that follows, so a
-// false alarm costs evaluations, not the track.
+// false alarm costs evaluations, not the track. A challenge (challenge_every) is such an
+// acquisition without a loss.
 class AcquiringFilter final : public PoseFilter {
  public:
   using FilterFactory = std::function<std::unique_ptr<PoseFilter>()>;
@@ -104,8 +112,8 @@ class AcquiringFilter final : public PoseFilter {
 
   // The next step finds the subject again, forgetting what is being tracked.
   void reacquire();
-  // Acquisitions that found a subject so far; times the tracker declared itself lost; why the
-  // last attempt found none ("" if it did).
+  // Acquisitions that found a subject so far (challenges included); times the tracker declared
+  // itself lost; why the last attempt found none ("" if it did).
   int acquisitions() const { return acquisitions_; }
   int losses() const { return losses_; }
   const std::string& lastFailure() const { return last_failure_; }
@@ -131,6 +139,7 @@ class AcquiringFilter final : public PoseFilter {
   std::vector<Hypothesis> hypotheses_;  // one once decided, several during a trial
   bool searching_ = true;  // the next step acquires (hypotheses_ holds the lost filter, if any)
   int trial_frames_left_ = 0;
+  long steps_ = 0;  // since construction or reset(): challenges fall on its multiples
   std::vector<double> recent_fits_;  // the fits the recent level is the median of, oldest first
   int low_fit_frames_ = 0;           // consecutive estimates under it
   int acquisitions_ = 0;

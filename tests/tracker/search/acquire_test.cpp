@@ -177,6 +177,41 @@ TEST(Acquire, ALostTrackerSaysSoAndFindsTheSubjectAgain) {
   EXPECT_LT(sum / static_cast<double>(points.size()), 0.05);  // metres, mean over the joints
 }
 
+// A track started turned round (its silhouettes fit well enough never to be lost) is replaced once
+// a challenge finds the subject again facing its way; without challenges it stays wrong.
+TEST(Acquire, AChallengeReplacesATrackTurnedRound) {
+  StrideScene scene(4);
+  const BodyModel& m = scene.model;
+  const auto masks = silhouettes(m, scene.rig, scene.truth);
+  const int yaw = m.dofIndex("root_yaw");
+  Eigen::VectorXd turned = scene.truth;
+  turned[yaw] += M_PI;
+  WorkerPool pool(1);
+  FilterOptions options = humanFilterDefaults();
+  options.evaluations_per_frame = 500;
+  auto trackFromTurned = [&](int challenge_every, int frames) {
+    AcquiringOptions acquiring;
+    acquiring.challenge_every = challenge_every;
+    auto filter = std::make_unique<AcquiringFilter>(
+        m, scene.rig, acquisitionStances(m), options.likelihood,
+        [&] { return makeFilter("factored", m, scene.rig, options, pool); }, acquiring);
+    filter->reset(turned);
+    FrameEstimate e;
+    for (int f = 0; f < frames; ++f) e = filter->step(masks);
+    return std::make_pair(std::move(filter), e);
+  };
+  const auto [unchallenged, stayed] = trackFromTurned(0, 20);
+  EXPECT_EQ(unchallenged->acquisitions(), 0);
+  EXPECT_GT(stayed.silhouette_fit, 0);  // not lost: nothing replaces it
+  EXPECT_GT(headingError(stayed.q[yaw], scene.truth[yaw]), 90 * kDeg);
+  // Challenged on the 8th frame; the trial ends on the 17th, before the next challenge.
+  const auto [challenged, replaced] = trackFromTurned(8, 20);
+  EXPECT_EQ(challenged->acquisitions(), 1);
+  EXPECT_EQ(challenged->losses(), 0);
+  EXPECT_LT(headingError(replaced.q[yaw], scene.truth[yaw]), 20 * kDeg);
+  EXPECT_EQ(replaced.evaluations, 500 + 1);  // one hypothesis left
+}
+
 // Something the pose does not explain (here a large blob beside the body) pulls the fit far under
 // its recent level: a loss when lost_below asks for one, not otherwise.
 TEST(Acquire, AFitFarUnderItsRecentLevelIsALossOnlyWhenAsked) {
