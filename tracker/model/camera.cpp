@@ -109,15 +109,29 @@ std::string yamlQuoted(std::string_view text) {
   return out + '"';
 }
 
+// What loadRig refuses in a camera's values once read: the one check of both reading and writing.
+void checkCameraValues(const CameraModel& c, const std::string& where) {
+  requireFinite(std::array{c.fx, c.fy, c.cx, c.cy}, where + ".camera_matrix");
+  if (c.fx <= 0 || c.fy <= 0)
+    throw std::runtime_error(where + ".camera_matrix: focal lengths must be positive");
+  requireFinite(c.distortion, where + ".distortion_coefficients");
+  requireFinite({c.rotation.data(), 9}, where + ".R");
+  requireFinite({c.translation.data(), 3}, where + ".T");
+  const double orthogonality =
+      (c.rotation * c.rotation.transpose() - Eigen::Matrix3d::Identity()).norm();
+  if (orthogonality > 1e-4 || c.rotation.determinant() < 0)
+    throw std::runtime_error(where + ".R: not a rotation matrix");
+}
+
 // Refuses what saveRig cannot write so that loadRig reads it back, before the file is opened.
 void checkWritable(const CameraModel& c, const std::string& where) {
   if (yamlQuoted(c.name).size() > kMaxWrittenString)
     throw std::runtime_error(where + ".name: " + std::to_string(c.name.size()) +
                              " bytes, too long for a rig file");
-  requireFinite(std::array{c.fx, c.fy, c.cx, c.cy}, where + ".camera_matrix");
-  requireFinite(c.distortion, where + ".distortion_coefficients");
-  requireFinite({c.rotation.data(), 9}, where + ".R");
-  requireFinite({c.translation.data(), 3}, where + ".T");
+  if (c.width <= 0 || c.height <= 0)
+    throw std::runtime_error(where + ": image size must be positive, got " +
+                             std::to_string(c.width) + "x" + std::to_string(c.height));
+  checkCameraValues(c, where);
 }
 
 }  // namespace
@@ -338,28 +352,19 @@ CameraModel readCamera(const YAML::Node& node, const std::string& key, const std
   c.fy = k.values[4];
   c.cx = k.values[2];
   c.cy = k.values[5];
-  requireFinite(k.values, where + ".camera_matrix");
-  if (c.fx <= 0 || c.fy <= 0)
-    throw std::runtime_error(where + ".camera_matrix: focal lengths must be positive");
   if (const YAML::Node dist = node["distortion_coefficients"]) {
     const Matrix d = readAnyMatrix(dist, where + ".distortion_coefficients");
     if (d.values.size() < 4 || d.values.size() > 5)
       throw std::runtime_error(where + ".distortion_coefficients: expected 4 or 5 values");
-    requireFinite(d.values, where + ".distortion_coefficients");
     std::copy(d.values.begin(), d.values.end(), c.distortion.begin());
   }
   const Matrix r = readMatrix(node["R"], where + ".R", 3, 3);
   const Matrix t = readMatrix(node["T"], where + ".T", 3, 1);
-  requireFinite(r.values, where + ".R");
-  requireFinite(t.values, where + ".T");
   for (int a = 0; a < 3; ++a) {
     c.translation[a] = t.values[a];
     for (int b = 0; b < 3; ++b) c.rotation(a, b) = r.values[3 * a + b];
   }
-  const double orthogonality =
-      (c.rotation * c.rotation.transpose() - Eigen::Matrix3d::Identity()).norm();
-  if (orthogonality > 1e-4 || c.rotation.determinant() < 0)
-    throw std::runtime_error(where + ".R: not a rotation matrix");
+  checkCameraValues(c, where);
   return c;
 }
 

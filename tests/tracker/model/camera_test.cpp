@@ -182,6 +182,16 @@ TEST(Camera, RigsThatWouldNotLoadBackAreNotWritten) {
   c = distortedCamera();
   c.name = std::string(4095, 'x');  // quoted, one byte more than OpenCV writes
   EXPECT_THAT(saveError({c}), HasSubstr("camera_0.name: 4095 bytes, too long for a rig file"));
+  // Finite, but what loadRig refuses all the same.
+  c = distortedCamera();
+  c.fy = 0;
+  EXPECT_THAT(saveError({c}), HasSubstr("camera_0.camera_matrix: focal lengths must be positive"));
+  c = distortedCamera();
+  c.rotation(0, 0) *= 1.1;
+  EXPECT_THAT(saveError({c}), HasSubstr("camera_0.R: not a rotation matrix"));
+  c = distortedCamera();
+  c.height = 0;
+  EXPECT_THAT(saveError({c}), HasSubstr("camera_0: image size must be positive, got 780x0"));
 }
 
 std::string loadError(const std::string& text) {
