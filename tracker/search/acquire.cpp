@@ -336,28 +336,33 @@ void AcquiringFilter::setYield(std::function<bool()> newer_frame_waiting) {
 FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   long acquisition_evaluations = 0;
   ++steps_;
-  if (options_.challenge_every > 0 && steps_ % options_.challenge_every == 0 && !searching_ &&
-      hypotheses_.size() == 1)
-    searching_ = true;
-  if (searching_) {
+  const bool challenge = options_.challenge_every > 0 && steps_ % options_.challenge_every == 0 &&
+                         !searching_ && hypotheses_.size() == 1;
+  if (searching_ || challenge) {
     const std::vector<Acquisition> found =
         acquireSubject(model_, rig_, masks, stances_, likelihood_, options_.search, &last_failure_);
-    if (found.empty()) {
+    // A challenge that finds nothing leaves the track as it was.
+    if (found.empty() && !challenge) {
       FrameEstimate none;
       none.q = stances_.front();
       none.found = false;
       return none;
     }
-    last_failure_.clear();
-    ++acquisitions_;
-    acquisition_evaluations = found.front().evaluations;
-    // A lost filter, if any, stays among the hypotheses (first, so it wins ties).
-    for (Hypothesis& h : hypotheses_) h.score = 0;
-    for (const Acquisition& a : found) hypotheses_.push_back(newHypothesis(a.q));
+    if (!found.empty()) {
+      last_failure_.clear();
+      ++acquisitions_;
+      acquisition_evaluations = found.front().evaluations;
+      // A lost or challenged filter stays among the hypotheses (first, so it wins ties).
+      for (Hypothesis& h : hypotheses_) h.score = 0;
+      for (const Acquisition& a : found) hypotheses_.push_back(newHypothesis(a.q));
+      trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
+    }
+    // The loss rule learns its level anew after a loss, not while a track goes on.
+    if (searching_) {
+      recent_fits_.clear();
+      low_fit_frames_ = 0;
+    }
     searching_ = false;
-    trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
-    recent_fits_.clear();
-    low_fit_frames_ = 0;
   }
 
   // Each hypothesis tracks the frame and is scored on it; the one ahead so far is the estimate.

@@ -212,6 +212,32 @@ TEST(Acquire, AChallengeReplacesATrackTurnedRound) {
   EXPECT_EQ(replaced.evaluations, 500 + 1);  // one hypothesis left
 }
 
+// A challenge on a frame where no subject is seen (fewer than two cameras see enough) changes
+// nothing: the track goes on, giving poses.
+TEST(Acquire, AChallengeThatFindsNoSubjectLeavesTheTrack) {
+  StrideScene scene;
+  const BodyModel& m = scene.model;
+  const auto masks = silhouettes(m, scene.rig, scene.truth);
+  const std::vector<SilhouetteMask> empty(2, SilhouetteMask(cv::Mat::zeros(290, 390, CV_8UC1)));
+  WorkerPool pool(1);
+  FilterOptions options = humanFilterDefaults();
+  options.evaluations_per_frame = 200;
+  AcquiringOptions acquiring;
+  acquiring.challenge_every = 2;
+  AcquiringFilter filter(m, scene.rig, acquisitionStances(m), options.likelihood,
+                         [&] { return makeFilter("factored", m, scene.rig, options, pool); },
+                         acquiring);
+  filter.reset(scene.truth);
+  EXPECT_TRUE(filter.step(masks).found);
+  EXPECT_TRUE(filter.step(empty).found);  // the challenge finds no subject: the track goes on
+  EXPECT_THAT(filter.lastFailure(), HasSubstr("no subject"));
+  EXPECT_EQ(filter.acquisitions(), 0);
+  const FrameEstimate e = filter.step(masks);
+  EXPECT_TRUE(e.found);
+  EXPECT_EQ(e.evaluations, 200 + 1);  // still the one track
+  EXPECT_EQ(filter.losses(), 0);
+}
+
 // Something the pose does not explain (here a large blob beside the body) pulls the fit far under
 // its recent level: a loss when lost_below asks for one, not otherwise.
 TEST(Acquire, AFitFarUnderItsRecentLevelIsALossOnlyWhenAsked) {
