@@ -154,6 +154,7 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
   shadow_.create(size, CV_8UC1);
   foreground_.create(background_.size(), CV_8UC1);
   foreground_.setTo(0);
+  drawn_ = {};
   shadow_.setTo(0);
   scratch_.gain_samples.reserve(
       static_cast<std::size_t>(size.area() / options_.gain_sample_step + 1));
@@ -405,8 +406,11 @@ void SilhouetteExtractor::resolveWeakShadows(cv::Rect box) {
 }
 
 void SilhouetteExtractor::cleanup() {
-  // Opening removes speckle, closing bridges gaps; each is an erosion and a dilation.
+  // Opening removes speckle, closing bridges gaps; each is an erosion and a dilation. The opening
+  // leaves the noise of the frame's empty parts behind: from then on only the box around what is
+  // left is touched.
   const cv::Mat* source = &scratch_.candidates;
+  cv::Rect box(cv::Point(0, 0), roi_.size());
   if (!open_.empty() || !close_.empty()) {
     silhouette_kernels::pack(scratch_.candidates, scratch_.packed);
     if (!open_.empty()) {
@@ -417,15 +421,23 @@ void SilhouetteExtractor::cleanup() {
       close_.dilate(scratch_.packed);
       close_.erode(scratch_.packed);
     }
-    silhouette_kernels::unpack(scratch_.packed, scratch_.cleaned);
+    silhouette_kernels::unpackBox(scratch_.packed, scratch_.cleaned);
     source = &scratch_.cleaned;
+    box = scratch_.packed.box();
   }
   std::vector<std::vector<cv::Point>>& contours = scratch_.contours;
   std::vector<cv::Vec4i>& hierarchy = scratch_.hierarchy;
-  cv::findContours(*source, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
+  contours.clear();
+  hierarchy.clear();
+  // The contours of the box alone are those of the whole image (it is zero around the box), found
+  // in the same order.
+  if (!box.empty())
+    cv::findContours((*source)(box), contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE,
+                     box.tl());
 
-  foreground_.setTo(0);
   cv::Mat out = foreground_(roi_);
+  out(drawn_).setTo(0);  // every pixel set last frame lies in the box it was drawn in
+  drawn_ = box;
   const double image_area = static_cast<double>(roi_.area());
   const double min_blob = options_.min_blob_fraction * image_area;
   const double max_hole = options_.max_hole_fraction * image_area;

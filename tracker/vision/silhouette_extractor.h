@@ -129,6 +129,7 @@ class SilhouetteExtractor {
   cv::Mat lower_, upper_;  // CV_8UC(c): the unchanged range of each channel
   cv::Mat bound_scratch_;
   cv::Mat foreground_, shadow_;
+  cv::Rect drawn_;  // within the region of interest: where the last frame's foreground was drawn
   silhouette_kernels::RunMorphology open_, close_;
   Scratch scratch_;
   SilhouetteMask silhouette_;

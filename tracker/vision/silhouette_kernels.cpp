@@ -201,6 +201,31 @@ void fitPlanes(const float* const rows[5], const float* const squares[5], int x0
                             (sum_x * sum_x + sum_y * sum_y) / cv::v_setall_f32(50.0f));
 }
 
+cv::Rect PackedMask::box() const {
+  if (empty()) return {};
+  const int left = 64 * first_word, right = std::min(cols, 64 * end_word);
+  return {left, top, right - left, bottom - top};
+}
+
+void PackedMask::shrinkBox() {
+  int new_top = bottom, new_bottom = top, new_first = end_word, new_end = first_word;
+  for (int y = top; y < bottom; ++y) {
+    const uint64_t* in = row(y);
+    for (int w = first_word; w < end_word; ++w) {
+      if (in[w] == 0) continue;
+      new_top = std::min(new_top, y);
+      new_bottom = y + 1;
+      new_first = std::min(new_first, w);
+      new_end = std::max(new_end, w + 1);
+    }
+  }
+  if (new_top >= new_bottom) new_top = new_bottom = new_first = new_end = 0;
+  top = new_top;
+  bottom = new_bottom;
+  first_word = new_first;
+  end_word = new_end;
+}
+
 void pack(const cv::Mat& src, PackedMask& dst) {
   CV_Assert(src.type() == CV_8UC1);
   dst.rows = src.rows;
@@ -219,9 +244,13 @@ void pack(const cv::Mat& src, PackedMask& dst) {
     for (; x < src.cols; ++x)
       if (in[x]) out[x / 64] |= uint64_t{1} << (x % 64);
   }
+  dst.top = dst.first_word = 0;
+  dst.bottom = dst.rows;
+  dst.end_word = dst.words;
+  dst.shrinkBox();
 }
 
-void unpack(const PackedMask& src, cv::Mat& dst) {
+void unpackBox(const PackedMask& src, cv::Mat& dst) {
   dst.create(src.rows, src.cols, CV_8UC1);
   // Eight pixels at a time: the 8 bytes of each 8-bit pattern.
   static const auto patterns = [] {
@@ -231,15 +260,16 @@ void unpack(const PackedMask& src, cv::Mat& dst) {
         if (bits & (1 << i)) table[static_cast<std::size_t>(bits)] |= uint64_t{0xff} << (8 * i);
     return table;
   }();
-  for (int y = 0; y < src.rows; ++y) {
+  const cv::Rect box = src.box();
+  for (int y = box.y; y < box.br().y; ++y) {
     const uint64_t* in = src.row(y);
     uint8_t* out = dst.ptr<uint8_t>(y);
-    int x = 0;
-    for (; x + 8 <= src.cols; x += 8) {
+    int x = box.x;
+    for (; x + 8 <= box.br().x; x += 8) {
       const uint64_t bytes = patterns[(in[x / 64] >> (x % 64)) & 0xff];
       std::memcpy(out + x, &bytes, sizeof bytes);
     }
-    for (; x < src.cols; ++x) out[x] = (in[x / 64] >> (x % 64)) & 1 ? 255 : 0;
+    for (; x < box.br().x; ++x) out[x] = (in[x / 64] >> (x % 64)) & 1 ? 255 : 0;
   }
 }
 
@@ -264,7 +294,8 @@ RunMorphology::RunMorphology(const cv::Mat& kernel) {
   windows_.resize(distinct_widths_.size());
 }
 
-void RunMorphology::horizontalWindows(const PackedMask& mask, bool erode) {
+void RunMorphology::horizontalWindows(const PackedMask& mask, bool erode, int first_word,
+                                      int end_word) {
   const int words = mask.words;
   // Outside the image: the identity of the operation, as OpenCV's default morphology border.
   const uint64_t border = erode ? ~uint64_t{0} : 0;
@@ -272,13 +303,14 @@ void RunMorphology::horizontalWindows(const PackedMask& mask, bool erode) {
   const uint64_t outside_tail = tail == 0 ? 0 : ~((uint64_t{1} << tail) - 1);
   line_.assign(static_cast<std::size_t>(words + 2), border);
   for (auto& window : windows_) window.resize(mask.bits.size());
-  for (int y = 0; y < mask.rows; ++y) {
+  // Rows outside the box are zero, and so are their windows: they are never read.
+  for (int y = mask.top; y < mask.bottom; ++y) {
     std::copy(mask.row(y), mask.row(y) + words, line_.begin() + 1);
     line_[static_cast<std::size_t>(words)] |= outside_tail & border;
     for (std::size_t i = 0; i < distinct_widths_.size(); ++i) {
       const int half = distinct_widths_[i];
       uint64_t* out = windows_[i].data() + static_cast<std::size_t>(y) * words;
-      for (int w = 0; w < words; ++w) {
+      for (int w = first_word; w < end_word; ++w) {
         const uint64_t* at = line_.data() + w + 1;  // at[-1] and at[1] are the neighbour words
         uint64_t combined = at[0];
         for (int shift = 1; shift <= half; ++shift) {
@@ -295,29 +327,53 @@ void RunMorphology::horizontalWindows(const PackedMask& mask, bool erode) {
 
 void RunMorphology::apply(PackedMask& mask, bool erode) {
   CV_Assert(!empty());
-  horizontalWindows(mask, erode);
   const int words = mask.words, radius = static_cast<int>(half_widths_.size() / 2);
+  // An erosion keeps within the box; a dilation reaches `radius` rows and (radius < 64) one word
+  // further. Either leaves an empty mask empty.
+  int top = mask.top, bottom = mask.bottom, first = mask.first_word, end = mask.end_word;
+  if (!erode && !mask.empty()) {
+    top = std::max(0, top - radius);
+    bottom = std::min(mask.rows, bottom + radius);
+    first = std::max(0, first - 1);
+    end = std::min(words, end + 1);
+  }
+  result_.assign(mask.bits.size(), 0);
+  if (mask.empty()) {
+    mask.bits.swap(result_);
+    return;
+  }
+  horizontalWindows(mask, erode, first, end);
   const int tail = mask.cols % 64;
   const uint64_t inside_tail = tail == 0 ? ~uint64_t{0} : (uint64_t{1} << tail) - 1;
-  result_.resize(mask.bits.size());
-  for (int y = 0; y < mask.rows; ++y) {
+  for (int y = top; y < bottom; ++y) {
     uint64_t* out = result_.data() + static_cast<std::size_t>(y) * words;
-    std::fill(out, out + words, erode ? ~uint64_t{0} : 0);
-    // Rows outside the image are the border: they leave the result as it is.
+    std::fill(out + first, out + end, erode ? ~uint64_t{0} : 0);
+    // Rows outside the image are the border: they leave the result as it is. Rows inside it but
+    // outside the box are zero: an erosion is zero, a dilation unchanged.
     for (int k = std::max(0, radius - y); k <= std::min(2 * radius, mask.rows - 1 - y + radius);
          ++k) {
       const int sy = y + k - radius, index = width_index_[static_cast<std::size_t>(k)];
+      if (sy < mask.top || sy >= mask.bottom) {
+        if (!erode) continue;
+        std::fill(out + first, out + end, 0);
+        break;
+      }
       const uint64_t* in = index < 0 ? mask.row(sy)
                                      : windows_[static_cast<std::size_t>(index)].data() +
                                            static_cast<std::size_t>(sy) * words;
       if (erode)
-        for (int w = 0; w < words; ++w) out[w] &= in[w];
+        for (int w = first; w < end; ++w) out[w] &= in[w];
       else
-        for (int w = 0; w < words; ++w) out[w] |= in[w];
+        for (int w = first; w < end; ++w) out[w] |= in[w];
     }
     out[words - 1] &= inside_tail;
   }
   mask.bits.swap(result_);
+  mask.top = top;
+  mask.bottom = bottom;
+  mask.first_word = first;
+  mask.end_word = end;
+  mask.shrinkBox();
 }
 
 }  // namespace mocap::silhouette_kernels

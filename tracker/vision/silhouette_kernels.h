@@ -40,22 +40,33 @@ void fitPlanes(const float* const rows[5], const float* const squares[5], int x0
                float residual[4]);
 
 // A binary image, one bit per pixel (bit x % 64 of word x / 64 of its row), for the morphology.
+// Every set bit lies in rows [top, bottom) and words [first_word, end_word) (the box); the bits
+// outside it are zero, so work on a frame with a person in part of it stays within that part.
 struct PackedMask {
   int rows = 0, cols = 0, words = 0;  // words per row
+  int top = 0, bottom = 0, first_word = 0, end_word = 0;
   std::vector<uint64_t> bits;
   uint64_t* row(int y) { return bits.data() + static_cast<std::size_t>(y) * words; }
   const uint64_t* row(int y) const { return bits.data() + static_cast<std::size_t>(y) * words; }
+  bool empty() const { return top >= bottom || first_word >= end_word; }
+  // The box's pixels, clipped to the image.
+  cv::Rect box() const;
+  // Narrows the box to the rows and words that hold a set bit.
+  void shrinkBox();
 };
 
-// Nonzero bytes of `src` (8-bit, one channel) become set bits; `dst` is resized to match.
+// Nonzero bytes of `src` (8-bit, one channel) become set bits; `dst` is resized to match and its box
+// is the set bits' rows and words.
 void pack(const cv::Mat& src, PackedMask& dst);
-// Set bits become 255, the others 0, in `dst` of the mask's size (allocated if needed).
-void unpack(const PackedMask& src, cv::Mat& dst);
+// The box's pixels: set bits become 255, the others 0, in `dst` (the mask's size; allocated if
+// needed). Pixels outside the box are left as they are.
+void unpackBox(const PackedMask& src, cv::Mat& dst);
 
 // Erosion and dilation of a packed mask by a structuring element whose rows are centred runs
 // shorter than 128 pixels (a disk from cv::getStructuringElement(MORPH_ELLIPSE)), equal to
 // cv::erode and cv::dilate with their default border (pixels outside the image never change the
-// result). 64 pixels per operation; buffers are kept between calls.
+// result). 64 pixels per operation, over the mask's box only (a dilation widens it by the
+// element's radius); buffers are kept between calls.
 class RunMorphology {
  public:
   RunMorphology() = default;
@@ -67,7 +78,7 @@ class RunMorphology {
 
  private:
   void apply(PackedMask& mask, bool erode);
-  void horizontalWindows(const PackedMask& mask, bool erode);
+  void horizontalWindows(const PackedMask& mask, bool erode, int first_word, int end_word);
 
   std::vector<int> half_widths_;      // per kernel row: the run is [-h, h] around the centre column
   std::vector<int> distinct_widths_;  // the nonzero half widths
