@@ -40,10 +40,11 @@ struct FactoredCandidate {
 // the layer's subtree) at their previous pose, after the placed ones.
 struct RestOfBody {
   RestOfBody(std::size_t cameras, std::size_t segments, int max_rows)
-      : explained(cameras), spans(segments * cameras * max_rows) {}
+      : explained(cameras), spans(segments * cameras * max_rows), camera_counts(cameras) {}
   std::vector<std::vector<Footprint>> explained;  // per camera: placed, then rest
   std::vector<RowSpan> spans;                     // the rest's footprints
-  PixelCounts counts;                             // of the rest
+  std::vector<PixelCounts> camera_counts;         // of the rest, per camera
+  PixelCounts counts;                             // of the rest, all cameras
   long renders = 0;
 };
 

@@ -69,9 +69,17 @@ FrameEstimate FactoredFilter::step(const std::vector<SilhouetteMask>& masks) {
   for (const FactoredLayer& layer : plan_.layers) {
     const int count = generateCandidates(layer, injection_debt);
     if (layer.lookahead) {
-      const int parents = static_cast<int>(particles_.size());
-      pool_.parallelFor(parents, [&](int p, int worker) { placeRest(layer, p, masks, worker); });
-      for (const RestOfBody& rest : rest_) estimate.segment_renders += rest.renders;
+      // One task per parent and camera: 5 parents alone would leave a thread idle.
+      const int cameras = static_cast<int>(rig_.size());
+      pool_.parallelFor(static_cast<int>(particles_.size()) * cameras, [&](int i, int worker) {
+        placeRest(layer, i / cameras, static_cast<std::size_t>(i % cameras), masks, worker);
+      });
+      for (std::size_t p = 0; p < particles_.size(); ++p) {
+        RestOfBody& rest = rest_[p];
+        rest.counts = PixelCounts();
+        for (const PixelCounts& counts : rest.camera_counts) rest.counts += counts;
+        estimate.segment_renders += rest.renders;
+      }
     }
     groupSamePoses(layer, count);
     pool_.parallelFor(static_cast<int>(pose_groups_.size()),

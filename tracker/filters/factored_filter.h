@@ -66,9 +66,9 @@ class FactoredFilter final : public PoseFilter {
                        WorkerScratch& scratch);
   // Places every segment of parent particle p that is neither placed this frame nor in
   // the layer segment's subtree at its previous relative pose, and counts them after the placed
-  // ones. The same for all of p's candidates, so done once per parent.
-  void placeRest(const FactoredLayer& layer, int p, const std::vector<SilhouetteMask>& masks,
-                 int worker);
+  // ones, in camera c. The same for all of p's candidates, so done once per parent.
+  void placeRest(const FactoredLayer& layer, int p, std::size_t c,
+                 const std::vector<SilhouetteMask>& masks, int worker);
   // The descendants of the candidate's segment at their previous relative pose, each counted
   // through the masked chain after the segment itself and the descendants before it.
   PixelCounts lookAhead(int s, const FactoredCandidate& cand, int i,

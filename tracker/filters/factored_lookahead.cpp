@@ -28,23 +28,20 @@ void FactoredFilter::rankByLookahead(const FactoredLayer& layer, int i,
                                                      total + lookAhead(s, cand, i, masks, scratch));
 }
 
-void FactoredFilter::placeRest(const FactoredLayer& layer, int p,
+void FactoredFilter::placeRest(const FactoredLayer& layer, int p, std::size_t c,
                                const std::vector<SilhouetteMask>& masks, int worker) {
   const FactoredParticle& parent = particles_[p];
   RestOfBody& rest = rest_[p];
   WorkerScratch& scratch = scratch_[worker];
   forwardKinematics(model_, scratch.kinematics, parent.q);
-  rest.counts = PixelCounts();
-  rest.renders = 0;
-  for (std::size_t c = 0; c < rig_.size(); ++c) {
-    rest.explained[c].clear();
-    for (std::size_t j = 0; j < parent.node.size(); ++j) {
-      if (static_cast<int>(j) == layer.segment || parent.node[j] < 0) continue;
-      rest.explained[c].push_back(node_footprints_[nodes_[parent.node[j]].first_footprint + c]);
-    }
+  std::vector<Footprint>& explained = rest.explained[c];
+  explained.clear();
+  for (std::size_t j = 0; j < parent.node.size(); ++j) {
+    if (static_cast<int>(j) == layer.segment || parent.node[j] < 0) continue;
+    explained.push_back(node_footprints_[nodes_[parent.node[j]].first_footprint + c]);
   }
   const std::vector<int>& below = plan_.descendants[layer.segment];
-  RowSpan* spans[kMaxCameras];
+  PixelCounts& counts = rest.camera_counts[c] = PixelCounts();
   int k = 0;
   for (std::size_t j = 0; j < model_.segments.size(); ++j) {
     const int o = static_cast<int>(j);
@@ -52,16 +49,14 @@ void FactoredFilter::placeRest(const FactoredLayer& layer, int p,
         model_.segments[o].shape.type == ShapeType::kNone ||
         std::find(below.begin(), below.end(), o) != below.end())
       continue;
-    for (std::size_t c = 0; c < rig_.size(); ++c)
-      spans[c] = &rest.spans[(k * rig_.size() + c) * max_rows_];
-    rest.counts +=
-        observeSegment(model_.segments[o].shape, scratch.kinematics.world[o], rig_, masks,
-                       scratch.rasterizer, spans, scratch.footprints.data(), rest.explained);
-    for (std::size_t c = 0; c < rig_.size(); ++c)
-      rest.explained[c].push_back(scratch.footprints[c]);
-    ++rest.renders;
+    const Footprint f =
+        scratch.rasterizer.rasterize(model_.segments[o].shape, scratch.kinematics.world[o],
+                                     rig_[c], &rest.spans[(k * rig_.size() + c) * max_rows_]);
+    counts += countFootprint(masks[c], f, explained.data(), static_cast<int>(explained.size()));
+    explained.push_back(f);
     ++k;
   }
+  if (c == 0) rest.renders = k;
 }
 
 PixelCounts FactoredFilter::lookAhead(int s, const FactoredCandidate& cand, int i,
