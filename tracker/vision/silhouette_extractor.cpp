@@ -80,16 +80,13 @@ cv::Mat colorMagnitude(const cv::Mat& bgr) {
 // needed).
 void inverseColorEnergy(const cv::Mat& bgr, cv::Mat& inverse) {
   inverse.create(bgr.size(), CV_32FC1);
-  for (int y = 0; y < bgr.rows; ++y) {
-    const float* mu = bgr.ptr<float>(y);
-    float* out = inverse.ptr<float>(y);
-    for (int x = 0; x < bgr.cols; ++x, mu += 3)
-      out[x] = 1.0f / (mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2] + 1.0f);
-  }
+  for (int y = 0; y < bgr.rows; ++y)
+    silhouette_kernels::inverseEnergyRow(bgr.ptr<float>(y), bgr.cols, inverse.ptr<float>(y));
 }
 
 // Rows of the ratio ring: the plane fit reads three floats past the last column.
 constexpr int kRatioRing = 5, kRatioPadding = 4;
+constexpr int kRatioBlock = 16;  // pixels per block of ratios computed at once
 
 }  // namespace
 
@@ -115,6 +112,7 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
   const cv::Rect frame(cv::Point(0, 0), background_.size());
   roi_ = options_.region_of_interest.empty() ? frame : (options_.region_of_interest & frame);
   if (roi_.empty()) throw std::invalid_argument("region of interest lies outside the frame");
+  mean_view_ = background_.mean(roi_);
 
   const int channels = background_.channels();
   const cv::Mat stddev = background_.stddev(roi_);
@@ -143,11 +141,14 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
   scratch_.ratio_rows = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
   scratch_.ratio_squares = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
   scratch_.fit_columns.reserve(static_cast<std::size_t>(stddev.cols));
+  for (Scratch::RatioSlot& slot : scratch_.ratio_slots)
+    slot.done.assign(static_cast<std::size_t>((stddev.cols + 64 * kRatioBlock - 1) / (64 * kRatioBlock)), 0);
 
   const cv::Size size = roi_.size();
   lower_.create(size, CV_8UC(channels));
   upper_.create(size, CV_8UC(channels));
   scratch_.normalized.create(size, CV_8UC(channels));
+  scratch_.normalized_rows.create(kRatioRing, stddev.cols * channels, CV_8UC1);
   scratch_.unchanged.create(size, CV_8UC1);
   scratch_.candidates.create(size, CV_8UC1);
   scratch_.cleaned.create(size, CV_8UC1);
@@ -165,7 +166,7 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
 
 void SilhouetteExtractor::rebuildBounds() {
   // mean -+ margin, rounded and clipped to 8 bits.
-  const cv::Mat mean = background_.mean(roi_);
+  const cv::Mat& mean = mean_view_;
   const int count = mean.cols * mean.channels();
   for (int y = 0; y < mean.rows; ++y)
     silhouette_kernels::boundsRow(mean.ptr<float>(y), margin_.ptr<float>(y), count,
@@ -189,7 +190,7 @@ void SilhouetteExtractor::rebuildBounds() {
 void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
   // Median of frame/background brightness over pixels that were background last frame: robust to
   // the person and shadows, and cheap on a sparse grid.
-  const cv::Mat mean = background_.mean(roi_);
+  const cv::Mat& mean = mean_view_;
   const int channels = mean.channels();
   const int step = options_.gain_sample_step;
   const cv::Mat previous = foreground_(roi_);
@@ -234,15 +235,17 @@ bool SilhouetteExtractor::keepsBackgroundColor(const uint8_t* in, const float* m
 }
 
 void SilhouetteExtractor::classify(const cv::Mat& region, float scale) {
-  // Row y is classified once rows y-2 .. y+2 are normalized: the plane fit reads them from a ring.
+  // Row y is classified once rows y-2 .. y+2 are tested: the plane fit reads them from a ring.
   const int rows = roi_.height, cols = roi_.width, channels = region.channels();
   cv::Point weak_min(cols, rows), weak_max(-1, -1);
-  scratch_.ratio_slots.fill({});
+  scratch_.region = region;
+  scratch_.scale = scale;
+  for (Scratch::RatioSlot& slot : scratch_.ratio_slots) slot.row = -1;
   for (int y = 0; y < rows + 2; ++y) {
     if (y < rows)
-      silhouette_kernels::normalizeAndTestRow(
-          region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y), cols, channels,
-          scale, scratch_.normalized.ptr<uint8_t>(y), scratch_.unchanged.ptr<uint8_t>(y));
+      silhouette_kernels::testRow(region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y),
+                                  upper_.ptr<uint8_t>(y), cols, channels, scale,
+                                  scratch_.unchanged.ptr<uint8_t>(y));
     if (y >= 2) classifyRow(y - 2, weak_min, weak_max);
   }
   if (weak_max.x >= weak_min.x) resolveWeakShadows(cv::Rect(weak_min, weak_max + cv::Point(1, 1)));
@@ -250,30 +253,53 @@ void SilhouetteExtractor::classify(const cv::Mat& region, float scale) {
 
 void SilhouetteExtractor::ensureRatios(int y, int begin, int end) {
   // Ratios are needed only around changed pixels: most rows of most frames have none, and most of
-  // a row with some lies outside them. A slot's columns stay one run, widened as asked.
+  // a row with some lies outside them. They are computed by blocks of kRatioBlock pixels.
   begin = std::max(begin, 0);
   end = std::min(end, roi_.width);
   if (begin >= end) return;
   Scratch::RatioSlot& slot = scratch_.ratio_slots[static_cast<std::size_t>(y % kRatioRing)];
-  if (slot.row != y) slot = {y, begin, begin};
-  const uint8_t* normalized = scratch_.normalized.ptr<uint8_t>(y);
-  float* ratio = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
-  float* ratio_squared = scratch_.ratio_squares.ptr<float>(y % kRatioRing);
-  const float* inverse = inverse_mean_.ptr<float>(y);
-  const float* mean = background_.mean(roi_).ptr<float>(y);
+  if (slot.row != y) {
+    slot.row = y;
+    std::fill(slot.done.begin(), slot.done.end(), 0);
+  }
   const auto compute = [&](int from, int to) {
-    if (from >= to) return;
-    if (background_.channels() == 1)
+    to = std::min(to, roi_.width);
+    const int channels = background_.channels();
+    const uint8_t* in = scratch_.region.ptr<uint8_t>(y);
+    uint8_t* normalized = scratch_.normalized_rows.ptr<uint8_t>(y % kRatioRing);
+    float* ratio = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
+    float* ratio_squared = scratch_.ratio_squares.ptr<float>(y % kRatioRing);
+    const float* inverse = inverse_mean_.ptr<float>(y);
+    const float* mean = mean_view_.ptr<float>(y);
+    silhouette_kernels::normalizeRow(in + channels * from, channels * (to - from), scratch_.scale,
+                                     normalized + channels * from);
+    if (channels == 1)
       silhouette_kernels::ratioRow(normalized + from, inverse + from, to - from, ratio + from,
                                    ratio_squared + from);
     else
       silhouette_kernels::colorRatioRow(normalized + 3 * from, mean + 3 * from, inverse + from,
                                         to - from, ratio + from, ratio_squared + from);
   };
-  compute(begin, slot.begin);
-  compute(slot.end, end);
-  slot.begin = std::min(slot.begin, begin);
-  slot.end = std::max(slot.end, end);
+  // Runs of blocks not yet done, each in one call.
+  const int last = (end - 1) / kRatioBlock;
+  for (int block = begin / kRatioBlock; block <= last;) {
+    uint64_t& word = slot.done[static_cast<std::size_t>(block / 64)];
+    const uint64_t bit = uint64_t{1} << (block % 64);
+    if (word & bit) {
+      ++block;
+      continue;
+    }
+    word |= bit;
+    int run_end = block + 1;
+    for (; run_end <= last; ++run_end) {
+      uint64_t& next = slot.done[static_cast<std::size_t>(run_end / 64)];
+      const uint64_t next_bit = uint64_t{1} << (run_end % 64);
+      if (next & next_bit) break;
+      next |= next_bit;
+    }
+    compute(block * kRatioBlock, run_end * kRatioBlock);
+    block = run_end;
+  }
 }
 
 void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& weak_max) {
@@ -294,33 +320,32 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
   // in the shadow band (and, in colour, that keep the background's colour) take the fit; the
   // others are the person's. Colour alone is not enough: grey clothes over a grey floor keep it.
   const bool fits_row = o.suppress_shadows && y > 1 && y < rows - 2;
-  if (fits_row) {
-    int last_changed = cols - 1;
-    while (same[last_changed]) --last_changed;
-    ensureRatios(y, first_changed, last_changed + 1);
-  }
   const float* centre = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
   const bool color = background_.channels() == 3;
-  const uint8_t* in = scratch_.normalized.ptr<uint8_t>(y);
-  const float* mu = background_.mean(roi_).ptr<float>(y);
+  // Normalized where the ratios are.
+  const uint8_t* in = scratch_.normalized_rows.ptr<uint8_t>(y % kRatioRing);
+  const float* mu = mean_view_.ptr<float>(y);
   const float* sigma = pixel_sigma_.ptr<float>(y);
   std::vector<int>& fit = scratch_.fit_columns;
   fit.clear();
-  for (int x = 0; x < cols; ++x) {
+  int ready_end = 0;  // ratios of this row are computed for the columns below it
+  for (int x = first_changed; x < cols; ++x) {
     if (same[x]) {
       x = skipUnchanged(same, x, cols) - 1;
       continue;
     }
-    if (fits_row && x > 1 && x < cols - 2 && centre[x] >= o.shadow_min_ratio &&
-        centre[x] <= o.shadow_max_ratio &&
+    const bool takes_fit = fits_row && x > 1 && x < cols - 2;
+    if (takes_fit && x >= ready_end) {
+      ensureRatios(y, x, x + 1);
+      ready_end = (x / kRatioBlock + 1) * kRatioBlock;
+    }
+    if (takes_fit && centre[x] >= o.shadow_min_ratio && centre[x] <= o.shadow_max_ratio &&
         (!color || keepsBackgroundColor(in + 3 * x, mu + 3 * x, sigma[x])))
       fit.push_back(x);
     else
       candidate[x] = 255;
   }
   if (fit.empty()) return;
-  // fitPlanes reads two columns left of a group of four and two right of it.
-  for (int dy = -2; dy <= 2; ++dy) ensureRatios(y + dy, fit.front() - 2, fit.back() + 6);
   const float* rows_ratio[kRatioRing];
   const float* rows_square[kRatioRing];
   for (int dy = -2; dy <= 2; ++dy) {
@@ -330,8 +355,14 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
   const float* noise_energy = ratio_noise_.ptr<float>(y);
   const float* texture = texture_.ptr<float>(y);
   uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
+  ready_end = 0;  // now: of all five rows
   for (std::size_t i = 0; i < fit.size();) {
     const int x0 = fit[i];
+    // fitPlanes reads two columns left of a group of four and two right of it.
+    if (x0 + 6 > ready_end) {
+      for (int dy = -2; dy <= 2; ++dy) ensureRatios(y + dy, x0 - 2, x0 + 6);
+      ready_end = ((x0 + 5) / kRatioBlock + 1) * kRatioBlock;
+    }
     float mean[4], residual[4];
     silhouette_kernels::fitPlanes(rows_ratio, rows_square, x0, mean, residual);
     for (; i < fit.size() && fit[i] < x0 + 4; ++i) {
@@ -360,14 +391,17 @@ void SilhouetteExtractor::resolveWeakShadows(cv::Rect box) {
   // reaches exactly the weak pixels of such components. They all lie in the weak pixels' box, and
   // the confident pixels they touch at most one pixel outside it.
   const cv::Rect frame(cv::Point(0, 0), weak_shadow_.size());
-  const cv::Rect wide = cv::Rect(box.x - 1, box.y - 1, box.width + 2, box.height + 2) & frame;
   constexpr uint8_t kReached = 1;  // a weak pixel (255) found to be a shadow
   std::vector<int>& stack = scratch_.flood_stack;
   stack.clear();
   const auto touchesConfident = [&](int x, int y) {
-    for (int ny = std::max(y - 1, wide.y); ny <= std::min(y + 1, wide.br().y - 1); ++ny) {
+    for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, frame.height - 1); ++ny) {
       const uint8_t* sure = shadow_.ptr<uint8_t>(ny);
-      for (int nx = std::max(x - 1, wide.x); nx <= std::min(x + 1, wide.br().x - 1); ++nx)
+      if (x > 0 && x + 1 < frame.width) {
+        if (sure[x - 1] | sure[x] | sure[x + 1]) return true;
+        continue;
+      }
+      for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, frame.width - 1); ++nx)
         if (sure[nx]) return true;
     }
     return false;
@@ -456,9 +490,13 @@ void SilhouetteExtractor::cleanup() {
 void SilhouetteExtractor::adapt() {
   // Only pixels whose every channel matched the background and that are not inside a silhouette:
   // a person standing still, their shadow, or a slow-moving object never leak into the model.
+  const cv::Mat& region = scratch_.region;
+  const int count = region.cols * region.channels();
+  for (int y = 0; y < region.rows; ++y)
+    silhouette_kernels::normalizeRow(region.ptr<uint8_t>(y), count, scratch_.scale,
+                                     scratch_.normalized.ptr<uint8_t>(y));
   cv::subtract(scratch_.unchanged, foreground_(roi_), scratch_.cleaned);  // free scratch by now
-  cv::Mat mean = background_.mean(roi_);
-  cv::accumulateWeighted(scratch_.normalized, mean, options_.adapt_rate, scratch_.cleaned);
+  cv::accumulateWeighted(scratch_.normalized, mean_view_, options_.adapt_rate, scratch_.cleaned);
   rebuildBounds();
 }
 

@@ -89,15 +89,19 @@ class SilhouetteExtractor {
  private:
   // Per-frame working buffers, sized by setBackground and reused by every frame.
   struct Scratch {
-    cv::Mat normalized;                     // the frame's region of interest divided by the gain
+    cv::Mat region;                         // this frame's region of interest
+    float scale = 1;                        // 1 / gain
+    cv::Mat normalized;                     // the region divided by the gain (for adaptation)
     cv::Mat unchanged;                      // 255 where every channel is in range
     cv::Mat candidates;                     // changed and not shadow, before cleanup
     silhouette_kernels::PackedMask packed;  // the candidates through the morphology
     cv::Mat cleaned;
-    // frame / background of 5 rows (row y in slot y % 5), and its square
-    cv::Mat ratio_rows, ratio_squares;
+    // Of 5 rows (row y in slot y % 5), around changed pixels: the normalized frame (bytes), frame /
+    // background and its square.
+    cv::Mat normalized_rows, ratio_rows, ratio_squares;
     struct RatioSlot {
-      int row = -1, begin = 0, end = 0;  // the row and columns a ring slot holds this frame
+      int row = -1;                // the row a ring slot holds this frame
+      std::vector<uint64_t> done;  // bit b: the block of columns b computed for that row
     };
     std::array<RatioSlot, 5> ratio_slots;
     std::vector<int> fit_columns;  // one row's pixels that take the plane fit
@@ -120,6 +124,7 @@ class SilhouetteExtractor {
   BackgroundModel background_;
   SilhouetteOptions options_;
   cv::Rect roi_;
+  cv::Mat mean_view_;      // the background's mean in the region of interest (shares its data)
   cv::Mat margin_;         // per channel: max(threshold_sigmas * stddev, min_difference)
   cv::Mat pixel_sigma_;    // CV_32FC1: mean stddev over channels
   cv::Mat inverse_mean_;   // gray: 1 / (mean + 1); BGR: 1 / (|mean|^2 + 1)

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
@@ -41,60 +42,92 @@ v_uint8x16 outside(const v_uint8x16& value, const uint8_t* lower, const uint8_t*
   return (cv::v_load(lower) - value) | (value - cv::v_load(upper));
 }
 
-// One pixel the vectors did not cover.
-void normalizeAndTestPixel(const uint8_t* in, const uint8_t* lower, const uint8_t* upper,
-                           int channels, float scale, uint8_t* normalized, uint8_t* unchanged) {
-  bool inside = true;
-  for (int c = 0; c < channels; ++c) {
-    normalized[c] = cv::saturate_cast<uint8_t>(in[c] * scale);
-    inside = inside && normalized[c] >= lower[c] && normalized[c] <= upper[c];
+// Brackets the normalized bytes without rounding floats: with m = round(256 * scale) (scale <
+// kFastScaleLimit, so m * 255 / 256 < 2^15), q = floor(in * m / 256) is within in / 512 < 0.5 of
+// in * scale, so the normalized byte is q or q + 1 (both saturated). It is surely in range if
+// lower <= q and q + 1 <= upper.
+struct Bracket {
+  v_uint16x8 m;
+  explicit Bracket(float scale)
+      : m(cv::v_setall_u16(static_cast<uint16_t>(std::lround(256.0 * scale)))) {}
+  // Nonzero bytes are those the bracket cannot show to be in range.
+  v_uint8x16 unsure(const uint8_t* in, const uint8_t* lower, const uint8_t* upper) const {
+    // A zero byte below each input byte: in * 256 per 16-bit lane.
+    v_uint8x16 low, high;
+    cv::v_zip(cv::v_setzero_u8(), cv::v_load(in), low, high);
+    const v_uint8x16 q =
+        cv::v_pack_u(cv::v_reinterpret_as_s16(cv::v_mul_hi(cv::v_reinterpret_as_u16(low), m)),
+                     cv::v_reinterpret_as_s16(cv::v_mul_hi(cv::v_reinterpret_as_u16(high), m)));
+    // Saturating arithmetic: nonzero where q < lower or q + 1 > upper.
+    return (cv::v_load(lower) - q) | ((q + cv::v_setall_u8(1)) - cv::v_load(upper));
   }
-  *unchanged = inside ? 255 : 0;
+};
+
+// One pixel the vectors did not cover.
+bool insidePixel(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int channels,
+                 float scale) {
+  for (int c = 0; c < channels; ++c) {
+    const uint8_t value = cv::saturate_cast<uint8_t>(in[c] * scale);
+    if (value < lower[c] || value > upper[c]) return false;
+  }
+  return true;
 }
 
 }  // namespace
 
-void normalizeAndTestRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int cols,
-                         int channels, float scale, uint8_t* normalized, uint8_t* unchanged) {
+void normalizeRow(const uint8_t* in, int count, float scale, uint8_t* normalized) {
   const v_float32x4 vscale = cv::v_setall_f32(scale);
-  const v_uint8x16 zero = cv::v_setzero_u8();
-  int x = 0;
-  if (!(scale < kFastScaleLimit)) {
-    // A gain near zero: every pixel takes the scalar path below.
-  } else if (channels == 1) {
-    for (; x + 16 <= cols; x += 16) {
-      const v_uint8x16 value = scaleBytes(cv::v_load(in + x), vscale);
-      cv::v_store(normalized + x, value);
-      cv::v_store(unchanged + x, outside(value, lower + x, upper + x) == zero);
-    }
-  } else {
-    // Most of a frame is background: 16 pixels whose 48 bytes are all in range at once.
-    const v_uint8x16 all = cv::v_setall_u8(255);
-    for (; x + 16 <= cols; x += 16) {
-      v_uint8x16 any_outside = zero;
-      for (int part = 0; part < 3; ++part) {
-        const int offset = 3 * x + 16 * part;
-        const v_uint8x16 value = scaleBytes(cv::v_load(in + offset), vscale);
-        cv::v_store(normalized + offset, value);
-        any_outside = any_outside | outside(value, lower + offset, upper + offset);
-      }
-      if (!cv::v_check_any(any_outside != zero)) {
-        cv::v_store(unchanged + x, all);
-        continue;
-      }
-      for (int pixel = x; pixel < x + 16; ++pixel) {
-        const uint8_t* value = normalized + 3 * pixel;
-        const uint8_t* low = lower + 3 * pixel;
-        const uint8_t* high = upper + 3 * pixel;
-        const bool inside = value[0] >= low[0] && value[0] <= high[0] && value[1] >= low[1] &&
-                            value[1] <= high[1] && value[2] >= low[2] && value[2] <= high[2];
-        unchanged[pixel] = inside ? 255 : 0;
-      }
-    }
+  int i = 0;
+  if (scale < kFastScaleLimit)
+    for (; i + 16 <= count; i += 16)
+      cv::v_store(normalized + i, scaleBytes(cv::v_load(in + i), vscale));
+  for (; i < count; ++i) normalized[i] = cv::saturate_cast<uint8_t>(in[i] * scale);
+}
+
+void testRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int cols, int channels,
+             float scale, uint8_t* unchanged) {
+  // A gain near zero, or a row under 16 pixels: every pixel takes the scalar path.
+  if (!(scale < kFastScaleLimit) || cols < 16) {
+    for (int x = 0; x < cols; ++x)
+      unchanged[x] = insidePixel(in + channels * x, lower + channels * x, upper + channels * x,
+                                 channels, scale)
+                         ? 255
+                         : 0;
+    return;
   }
-  for (; x < cols; ++x)
-    normalizeAndTestPixel(in + channels * x, lower + channels * x, upper + channels * x, channels,
-                          scale, normalized + channels * x, unchanged + x);
+  const v_float32x4 vscale = cv::v_setall_f32(scale);
+  const v_uint8x16 zero = cv::v_setzero_u8(), all = cv::v_setall_u8(255);
+  const Bracket bracket(scale);
+  const auto testPixels = [&](int x) {  // x .. x + 15
+    const int first = channels * x;
+    v_uint8x16 unsure = zero;
+    for (int part = 0; part < channels; ++part)
+      unsure = unsure | bracket.unsure(in + first + 16 * part, lower + first + 16 * part,
+                                       upper + first + 16 * part);
+    if (!cv::v_check_any(unsure != zero)) {
+      cv::v_store(unchanged + x, all);
+      return;
+    }
+    // Exactly: the normalized bytes outside their range.
+    v_uint8x16 out_of_range[3];
+    for (int part = 0; part < channels; ++part) {
+      const int offset = first + 16 * part;
+      out_of_range[part] =
+          outside(scaleBytes(cv::v_load(in + offset), vscale), lower + offset, upper + offset);
+    }
+    if (channels == 1) {
+      cv::v_store(unchanged + x, out_of_range[0] == zero);
+      return;
+    }
+    uint8_t bytes[48];
+    for (int part = 0; part < 3; ++part) cv::v_store(bytes + 16 * part, out_of_range[part]);
+    v_uint8x16 b, g, r;
+    cv::v_load_deinterleave(bytes, b, g, r);
+    cv::v_store(unchanged + x, (b | g | r) == zero);
+  };
+  int x = 0;
+  for (; x + 16 <= cols; x += 16) testPixels(x);
+  if (x < cols) testPixels(cols - 16);  // the last 16, overlapping: the same values again
 }
 
 void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower, uint8_t* upper) {
@@ -115,6 +148,20 @@ void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower
   for (; i < count; ++i) {
     lower[i] = cv::saturate_cast<uint8_t>(mean[i] - margin[i]);
     upper[i] = cv::saturate_cast<uint8_t>(mean[i] + margin[i]);
+  }
+}
+
+void inverseEnergyRow(const float* bgr, int cols, float* inverse) {
+  int x = 0;
+  const v_float32x4 one = cv::v_setall_f32(1.0f);
+  for (; x + 4 <= cols; x += 4) {
+    v_float32x4 b, g, r;
+    cv::v_load_deinterleave(bgr + 3 * x, b, g, r);
+    cv::v_store(inverse + x, one / (b * b + g * g + r * r + one));
+  }
+  for (; x < cols; ++x) {
+    const float* mu = bgr + 3 * x;
+    inverse[x] = 1.0f / (mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2] + 1.0f);
   }
 }
 
@@ -303,8 +350,9 @@ void RunMorphology::horizontalWindows(const PackedMask& mask, bool erode, int fi
   const uint64_t outside_tail = tail == 0 ? 0 : ~((uint64_t{1} << tail) - 1);
   line_.assign(static_cast<std::size_t>(words + 2), border);
   for (auto& window : windows_) window.resize(mask.bits.size());
-  // Rows outside the box are zero, and so are their windows: they are never read.
+  // Zero rows have zero windows: they are never read.
   for (int y = mask.top; y < mask.bottom; ++y) {
+    if (!nonzero_rows_[static_cast<std::size_t>(y)]) continue;
     std::copy(mask.row(y), mask.row(y) + words, line_.begin() + 1);
     line_[static_cast<std::size_t>(words)] |= outside_tail & border;
     for (std::size_t i = 0; i < distinct_widths_.size(); ++i) {
@@ -342,18 +390,26 @@ void RunMorphology::apply(PackedMask& mask, bool erode) {
     mask.bits.swap(result_);
     return;
   }
+  // Frames are mostly empty rows, which need no work.
+  nonzero_rows_.assign(static_cast<std::size_t>(mask.rows), 0);
+  for (int y = mask.top; y < mask.bottom; ++y) {
+    const uint64_t* in = mask.row(y);
+    uint64_t any = 0;
+    for (int w = mask.first_word; w < mask.end_word; ++w) any |= in[w];
+    nonzero_rows_[static_cast<std::size_t>(y)] = any != 0;
+  }
   horizontalWindows(mask, erode, first, end);
   const int tail = mask.cols % 64;
   const uint64_t inside_tail = tail == 0 ? ~uint64_t{0} : (uint64_t{1} << tail) - 1;
   for (int y = top; y < bottom; ++y) {
     uint64_t* out = result_.data() + static_cast<std::size_t>(y) * words;
     std::fill(out + first, out + end, erode ? ~uint64_t{0} : 0);
-    // Rows outside the image are the border: they leave the result as it is. Rows inside it but
-    // outside the box are zero: an erosion is zero, a dilation unchanged.
+    // Rows outside the image are the border: they leave the result as it is. Zero rows inside it
+    // make an erosion zero and leave a dilation unchanged.
     for (int k = std::max(0, radius - y); k <= std::min(2 * radius, mask.rows - 1 - y + radius);
          ++k) {
       const int sy = y + k - radius, index = width_index_[static_cast<std::size_t>(k)];
-      if (sy < mask.top || sy >= mask.bottom) {
+      if (!nonzero_rows_[static_cast<std::size_t>(sy)]) {
         if (!erode) continue;
         std::fill(out + first, out + end, 0);
         break;

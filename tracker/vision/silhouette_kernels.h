@@ -11,15 +11,22 @@
 
 namespace mocap::silhouette_kernels {
 
-// One row of `cols` pixels of `channels` (1 or 3) interleaved bytes:
-// normalized = saturate(round_half_even(in * scale)) per byte (cv::Mat::convertTo's float path),
-// unchanged[x] = 255 if every channel of normalized lies in [lower, upper], else 0 (cv::inRange).
-void normalizeAndTestRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int cols,
-                         int channels, float scale, uint8_t* normalized, uint8_t* unchanged);
+// `count` bytes: normalized = saturate(round_half_even(in * scale)) (cv::Mat::convertTo's float
+// path).
+void normalizeRow(const uint8_t* in, int count, float scale, uint8_t* normalized);
+
+// One row of `cols` pixels of `channels` (1 or 3) interleaved bytes: unchanged[x] = 255 if every
+// channel of the normalized pixel (as normalizeRow) lies in [lower, upper], else 0 (cv::inRange).
+// Most pixels are decided by a cheaper 16-bit product that brackets the normalized value.
+void testRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int cols, int channels,
+             float scale, uint8_t* unchanged);
 
 // lower = saturate(round_half_even(mean - margin)), upper the same of mean + margin, over `count`
 // values (cv::subtract or cv::add, then convertTo CV_8U).
 void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower, uint8_t* upper);
+
+// Per pixel of `cols` BGR floats: 1 / (b^2 + g^2 + r^2 + 1), summed in that order as a plain loop.
+void inverseEnergyRow(const float* bgr, int cols, float* inverse);
 
 // ratio = normalized * inverse_mean (the gray shadow test's frame / background) and its square.
 void ratioRow(const uint8_t* normalized, const float* inverse_mean, int cols, float* ratio,
@@ -86,6 +93,7 @@ class RunMorphology {
   std::vector<std::vector<uint64_t>>
       windows_;                 // per distinct width: each row's AND or OR over the run
   std::vector<uint64_t> line_;  // one row with a border word on both sides
+  std::vector<uint8_t> nonzero_rows_;  // per row of the mask: any bit set
   std::vector<uint64_t> result_;
 };
 
