@@ -12,6 +12,7 @@
 #include "drivers/record/session_format.h"
 #include "tracker/model/camera.h"
 #include "tracker/motion/bvh.h"
+#include "tracker/vision/background_model.h"
 
 namespace mocap {
 namespace {
@@ -76,6 +77,47 @@ TEST(FuzzFindingsTest, RigMatrixOfAHugeSizeIsRefusedBeforeAllocating) {
       "      data: [ 1200., 0., 390., 0., 1200., 290., 0., 0., 1. ]\n");
   EXPECT_EQ(rigError(path),
             path + ": camera_0.camera_matrix: 100000x100000 is larger than any matrix of a rig");
+}
+
+// loadBackground's message for the background file at `path`; "(loaded)" if it loads.
+std::string backgroundError(const std::string& path) {
+  try {
+    loadBackground(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "(loaded)";
+}
+
+// A 1x1 gray background file as saveBackground writes it, up to its mean's data.
+const std::string kBackgroundStart =
+    "%YAML:1.0\n---\nimage_width: 1\nimage_height: 1\nchannels: 1\nmean: !!opencv-matrix\n"
+    "   rows: 1\n";
+
+// Background files OpenCV's FileStorage failed on, when it read them: it never returned on a
+// base64 line starting with a character outside base64 (libFuzzer's 20-s timeout, in
+// FileStorage::Impl::parseBase64), allocated 8 GB for "cols:%8" (a size it could not read; ASan:
+// out of memory), and asserted (cv::Exception, "isMap()", not naming the file) on a file whose top
+// level is a list.
+TEST(FuzzFindingsTest, BackgroundTextsFileStorageFailedOnAreRefusedByName) {
+  const struct {
+    std::string name, text, error;
+  } cases[] = {
+      {"background_opencv_hang.yml",
+       kBackgroundStart + "   cols: 1\n   dt: f\n   data: !!binary |\n"
+                          "     & MWYgICAgICAgICAgICAgICAgICAgICAgAADgQA==\n",
+       ":11: mean.data: '&' in the base64 data"},
+      {"background_huge_matrix.yml",
+       kBackgroundStart + "   cols:%8\n   dt: f\n   data: !!binary |\n"
+                          "      MWYgICAgICAgICAgICAgICAgICAgICAgAADgQA==\n",
+       ":8: mean: expected one of its fields (rows, cols, dt, data) as \"name: value\""},
+      {"background_not_a_map.yml", "%YAML:1.0\n---\n- image_width\n",
+       ":3: expected a field of the model"},
+  };
+  for (const auto& c : cases) {
+    const std::string path = writeTempFile(c.name, c.text);
+    EXPECT_THAT(backgroundError(path), HasSubstr(path + c.error)) << c.name;
+  }
 }
 
 // yaml-cpp threw YAML::BadSubscript out of parseManifest for a camera that is not a map.

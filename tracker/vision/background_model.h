@@ -50,10 +50,14 @@ double unsteadyShare(const BackgroundModel& model, double grey_levels = 15);
 double changedShare(const BackgroundModel& before, const BackgroundModel& after, double sigmas,
                     double min_difference);
 
-// OpenCV FileStorage (YAML or XML by extension, ".gz" appended compresses), matrices in base64.
+// The file is OpenCV FileStorage YAML with the matrices in base64 (image_width, image_height,
+// channels, mean, stddev), gzip-compressed if the name ends in ".gz"; written and read without
+// OpenCV's parser (background_file.cpp), which can hang on a malformed file.
 // saveBackground replaces `path` atomically (a hidden temporary file in the same directory, read
-// back, flushed, then renamed) and throws std::runtime_error naming the file; loadBackground throws
-// std::runtime_error naming the file and the field at fault.
+// back, flushed, then renamed) and throws std::runtime_error naming the file. loadBackground reads
+// that layout only and throws std::runtime_error naming the file and the field at fault, for sizes
+// beyond 16384 pixels a side or 2^25 pixels, and for values that are not finite or deviations
+// below zero (which saveBackground refuses to write).
 void saveBackground(const std::string& path, const BackgroundModel& model);
 BackgroundModel loadBackground(const std::string& path);
 
