@@ -4,7 +4,12 @@
 // the masked silhouettes), and that evaluation's two halves separately. On the human body (the CMU
 // walk, 2 cameras at 780x580, set up as `mocap-experiment human` does): one factored step of 2000
 // evaluations with the experiment's defaults (without and with the full-body refinement) and with
-// the paper's options. The hand step also with a refinement. Threads: the Arg.
+// the paper's options. The hand step also with a refinement. Threads: the Arg. The defaults' cost
+// curves: BM_HumanStepCost.
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <thread>
 #include <utility>
 
 #include <benchmark/benchmark.h>
@@ -151,23 +156,52 @@ void BM_SegmentCount(benchmark::State& state) {
 BENCHMARK(BM_SegmentCount)->Unit(benchmark::kNanosecond);
 
 // The human experiment's set-up: the built-in body fitted to the walk's skeleton, 30 frames of the
-// walk retargeted at 25 Hz (as the reference run --frames 30), the lab rig of 2 cameras around
-// that path.
-TrackingSetup& humanSetup() {
-  static TrackingSetup s = [] {
+// walk retargeted at 25 Hz (as the reference run --frames 30), the lab rig of `cameras` cameras
+// around that path (2 unless said).
+TrackingSetup& humanSetup(int cameras = 2) {
+  static std::map<int, std::unique_ptr<TrackingSetup>> setups;
+  std::unique_ptr<TrackingSetup>& s = setups[cameras];
+  if (!s) {
     const Bvh bvh = loadBvh(std::string(MOCAP_SHARED_DIR) + "/data/motion/cmu_131_01_walk.bvh");
     BodyModel model = fitModelToBvh(builtinHumanModel(), bvh.skeleton);
     Motion motion = retargetBvh(model, bvh.skeleton, bvh.motion, 25, 30).motion;
-    Rig rig = labRig(2, model, motion);
-    return TrackingSetup(std::move(model), std::move(rig), std::move(motion));
-  }();
-  return s;
+    Rig rig = labRig(cameras, model, motion);
+    s = std::make_unique<TrackingSetup>(std::move(model), std::move(rig), std::move(motion));
+  }
+  return *s;
 }
 
 void humanStep(benchmark::State& state, FilterOptions options) {
   options.evaluations_per_frame = 2000;
   trackSteps(state, humanSetup(), "factored", options);
 }
+
+// The cost curves of docs/speed.md: the defaults' step against evaluations, cameras and threads
+// (the Args, in that order), each swept from the 2000-evaluation, 2-camera, 1-thread point.
+void BM_HumanStepCost(benchmark::State& state) {
+  FilterOptions options = humanFilterDefaults();
+  options.evaluations_per_frame = static_cast<int>(state.range(0));
+  WorkerPool pool(static_cast<int>(state.range(2)));
+  const TrackingSetup& s = humanSetup(static_cast<int>(state.range(1)));
+  auto filter = makeFilter("factored", s.model, s.rig, options, pool);
+  filter->reset(s.motion[0]);
+  std::size_t f = 0;
+  for (auto _ : state) {
+    filter->step(s.frames[f]);
+    f = (f + 1) % s.frames.size();
+  }
+}
+void costCurveArgs(benchmark::internal::Benchmark* b) {
+  for (int evals : {500, 1000, 2000, 4000, 8000}) b->Args({evals, 2, 1});
+  for (int cameras : {1, 3, 4, 6, 8}) b->Args({2000, cameras, 1});
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  for (int threads = 2; threads <= cores; ++threads) b->Args({2000, 2, threads});
+}
+BENCHMARK(BM_HumanStepCost)
+    ->Apply(costCurveArgs)
+    ->ArgNames({"evals", "cameras", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // `mocap-experiment human`'s defaults without the refinement: whole-body look-ahead, segment
 // injection, 5 % injected.
