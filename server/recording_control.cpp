@@ -3,10 +3,6 @@
 
 #include <filesystem>
 
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
-
 #include <opencv2/core.hpp>
 
 #include "server/log.h"
@@ -38,28 +34,6 @@ RecordingResult checkSessionPath(const std::string& root, const std::string& rel
   return {};
 }
 
-// A recording's threads (writer, encoding helper, background writer) start and end with it, each
-// in whichever glibc arena is free, so its tens of MB (encodings, silhouette extractors, each
-// background model written and read back) land in another arena each time. Freed, they stayed:
-// glibc raises its mmap threshold to the first large block freed, keeps later ones in the arenas,
-// and gives an arena's memory back only from its top, past twice that threshold. So the RSS rose
-// with every recording. Two measures keep it to what is in use:
-// - the threshold held at glibc's initial 128 KiB: large blocks (frames, images, models) are
-//   mapped on their own and unmapped when freed (process-wide, set once);
-void keepLargeBlocksMapped() {
-#if defined(__GLIBC__)
-  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
-#endif
-}
-
-// - and, once a recording has closed, the free pages that smaller blocks left inside the arenas
-//   handed back.
-void returnFreedPages() {
-#if defined(__GLIBC__)
-  malloc_trim(0);
-#endif
-}
-
 }  // namespace
 
 RecordingControl::RecordingControl(
@@ -74,7 +48,6 @@ RecordingControl::RecordingControl(
   camera_cv_types_.assign(cameras_.size(), -1);
   backgrounds_in_use_.resize(cameras_.size());
   next_frame_sequences_.assign(cameras_.size(), 0);
-  keepLargeBlocksMapped();
 }
 
 RecordingStatus RecordingControl::statusLocked() const {
@@ -202,8 +175,6 @@ RecordingResult RecordingControl::finish(std::unique_ptr<Recorder> recorder,
     last_ = status;
   }
   const std::string session = recorder->sessionPath().string();
-  recorder.reset();
-  returnFreedPages();
   if (!stats.stopped.empty()) {
     logError() << "recording " << session << " stopped: " << stats.stopped << "; "
                << stats.sets_written << " frame sets kept, " << stats.sets_discarded

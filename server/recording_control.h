@@ -71,8 +71,7 @@ class RecordingControl {
  public:
   // The configuration, rig and cameras are borrowed and must outlive it. `scene_backgrounds`: per
   // camera, the background a recording stores while no other is in use (the fake scene's empty
-  // room with true silhouettes). Holds glibc's mmap threshold fixed for the whole process
-  // (recording_control.cpp says why).
+  // room with true silhouettes).
   RecordingControl(const ServerConfig& config, const Rig& rig,
                    const std::vector<OpenedCamera>& cameras, RecordedTracking tracking,
                    std::vector<std::shared_ptr<const BackgroundModel>> scene_backgrounds);

@@ -1,15 +1,10 @@
 // The daemon's recordings by image mode and on a filling disk: a start refused under the free-space
 // floor, a recording stopped at it with a status, and replays of compressed sessions and of
-// sessions without images; and the allocator setting that returns a recording's memory.
+// sessions without images.
 #include <sys/mount.h>
-
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 #include <cerrno>
 #include <chrono>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -174,27 +169,6 @@ TEST_F(EndToEndTest, ReplaysACompressedSessionCloseToItsRecordedSilhouettes) {
   EXPECT_GE(agreement, 0.9);  // extracted from the JPEG images instead of the captured ones
   EXPECT_GT(poses, 30u);
 }
-
-#if defined(__GLIBC__)
-// Left to itself, glibc raises its mmap threshold to the size of a large block freed, and later
-// blocks below it stay in its arenas once freed (the daemon's RSS rose with every recording).
-// With a RecordingControl in the process, a block half the size of one freed is still mapped.
-TEST(RecordingControlMemory, KeepsLargeBlocksMappedAfterALargerOneIsFreed) {
-  const ServerConfig config;
-  const Rig rig;
-  const RecordingControl control(config, rig, {}, {}, {});
-  constexpr std::size_t kLarge = 8 << 20;
-  void* volatile large = std::malloc(kLarge);  // volatile: the pair must not be optimized away
-  ASSERT_NE(large, nullptr);
-  std::free(large);
-  const std::size_t mapped_before = mallinfo2().hblkhd;
-  void* volatile half = std::malloc(kLarge / 2);
-  ASSERT_NE(half, nullptr);
-  const std::size_t mapped_with_half = mallinfo2().hblkhd;
-  std::free(half);
-  EXPECT_GE(mapped_with_half, mapped_before + kLarge / 2);
-}
-#endif
 
 }  // namespace
 }  // namespace mocap

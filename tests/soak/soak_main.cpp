@@ -93,6 +93,8 @@ SoakOptions parseOptions(int argc, char** argv) {
   if (options.work.empty())
     options.work =
         (fs::temp_directory_path() / ("mocap-soak-" + std::to_string(getpid()))).string();
+  // Absolute: the daemon reads the paths in its configuration from the configuration's folder.
+  options.work = fs::absolute(options.work).string();
   return options;
 }
 
