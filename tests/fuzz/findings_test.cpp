@@ -106,13 +106,13 @@ TEST(FuzzFindingsTest, BackgroundTextsFileStorageFailedOnAreRefusedByName) {
       {"background_opencv_hang.yml",
        kBackgroundStart + "   cols: 1\n   dt: f\n   data: !!binary |\n"
                           "     & MWYgICAgICAgICAgICAgICAgICAgICAgAADgQA==\n",
-       ":11: mean.data: '&' in the base64 data"},
+       ": mean.data: '&' in the base64 data (line 11)"},
       {"background_huge_matrix.yml",
        kBackgroundStart + "   cols:%8\n   dt: f\n   data: !!binary |\n"
                           "      MWYgICAgICAgICAgICAgICAgICAgICAgAADgQA==\n",
-       ":8: mean: expected one of its fields (rows, cols, dt, data) as \"name: value\""},
+       ": mean: expected one of its fields (rows, cols, dt, data) as \"name: value\" (line 8)"},
       {"background_not_a_map.yml", "%YAML:1.0\n---\n- image_width\n",
-       ":3: expected a field of the model"},
+       ": expected a field of the model (\"name: value\") (line 3)"},
   };
   for (const auto& c : cases) {
     const std::string path = writeTempFile(c.name, c.text);

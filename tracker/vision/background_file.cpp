@@ -245,8 +245,9 @@ bool InputLines::next(std::string& line) {
     const std::size_t newline = buffered_.find('\n', start_);
     const std::size_t length = (newline == std::string::npos ? buffered_.size() : newline) - start_;
     if (length > kMaxLine)
-      throw std::runtime_error(path_ + ":" + std::to_string(number_ + 1) + ": longer than " +
-                               std::to_string(kMaxLine) + " characters: not a background model");
+      throw std::runtime_error(path_ + ": longer than " + std::to_string(kMaxLine) +
+                               " characters: not a background model (line " +
+                               std::to_string(number_ + 1) + ")");
     if (newline != std::string::npos || (at_end_ && length > 0)) {
       last_.assign(buffered_, start_, length);
       start_ = std::min(start_ + length + 1, buffered_.size());
@@ -381,7 +382,8 @@ class BackgroundReader {
     throw std::runtime_error(path_ + ": " + what);
   }
   [[noreturn]] void failHere(const std::string& what) const {
-    throw std::runtime_error(path_ + ":" + std::to_string(lines_.number()) + ": " + what);
+    throw std::runtime_error(path_ + ": " + what + " (line " + std::to_string(lines_.number()) +
+                             ")");
   }
   void readFirstLines();
   int readPositive(const Field& field, const std::string& where, int largest) const;

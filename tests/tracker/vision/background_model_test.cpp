@@ -17,6 +17,7 @@
 namespace mocap {
 namespace {
 
+using ::testing::EndsWith;
 using ::testing::HasSubstr;
 
 std::vector<cv::Mat> noisyFrames(int type, int count, double sigma) {
@@ -206,6 +207,7 @@ TEST_F(BackgroundFile, SaveRefusesValuesNoCaptureHas) {
 // A FileStorage file of a 4x3 gray model; `edit` replaces the first `from` in its text by `to`.
 struct Edit {
   std::string from, to, error;
+  int line = 0;  // the line the error names, if it names one
 };
 
 TEST_F(BackgroundFile, EveryRefusalNamesTheFileAndTheField) {
@@ -216,43 +218,47 @@ TEST_F(BackgroundFile, EveryRefusalNamesTheFileAndTheField) {
   // The first data line of mean, and the base64 header alone ("1f" and spaces, 24 bytes).
   const std::string first_data = good.substr(good.find("      MWYg"), 71);
   const Edit edits[] = {
-      {"%YAML:1.0", "%YAML:2.0", ":1: not an OpenCV FileStorage YAML file"},
-      {"---", "--- x", ":2: expected '---' after the %YAML line"},
-      {"image_width: 4", "image_width: four", ":3: image_width: 'four' is not a positive integer"},
-      {"image_width: 4", "image_width: 0", ":3: image_width: must be positive, got 0"},
+      {"%YAML:1.0", "%YAML:2.0", ": not an OpenCV FileStorage YAML file", 1},
+      {"---", "--- x", ": expected '---' after the %YAML line", 2},
+      {"image_width: 4", "image_width: four", ": image_width: 'four' is not a positive integer", 3},
+      {"image_width: 4", "image_width: 0", ": image_width: must be positive, got 0", 3},
       {"image_height: 3", "image_height: 20000",
-       ":4: image_height: 20000 is more than the 16384 a background model may have"},
+       ": image_height: 20000 is more than the 16384 a background model may have", 4},
       {"image_width: 4\nimage_height: 3", "image_width: 16384\nimage_height: 16384",
-       ":6: mean: image_width x image_height, 16384x16384, is more than the 33554432 pixels"},
+       ": mean: image_width x image_height, 16384x16384, is more than the 33554432 pixels", 6},
       {"4\nimage_height: 3\nchannels: 1\nmean: !!opencv-matrix\n   rows: 3\n   cols: 4",
        "4000\nimage_height: 3000\nchannels: 1\nmean: !!opencv-matrix\n   rows: 3000\n   cols: 4000",
-       ":10: mean.data: 4000x3000x1 floats take 64000032 base64 characters, more than the file's"},
-      {"image_width: 4", "image_width: 4\nimage_width: 4", ":4: image_width: given twice"},
-      {"channels: 1", "channels: 2", ":5: channels: expected 1 or 3, got 2"},
-      {"channels: 1\n", "", ":5: channels: missing before mean"},
-      {"mean: !!opencv-matrix", "mean: [ 1, 2 ]", ":6: mean: expected an OpenCV matrix"},
-      {"   rows: 3", "   rows: 5", ":7: mean.rows: 5, but image_height is 3"},
-      {"   cols: 4", "   cols: 40", ":8: mean.cols: 40, but image_width is 4"},
-      {"   dt: f", "   dt: d", ":9: mean.dt: 'd', expected f (float, 1 channel(s)"},
-      {"   data: !!binary |", "   data: [ 1., 2. ]", ":10: mean.data: expected base64"},
-      {"   rows: 3\n", "", ":9: mean.data: comes before rows, cols and dt"},
+       ": mean.data: 4000x3000x1 floats take 64000032 base64 characters, more than the file's", 10},
+      {"image_width: 4", "image_width: 4\nimage_width: 4", ": image_width: given twice", 4},
+      {"channels: 1", "channels: 2", ": channels: expected 1 or 3, got 2", 5},
+      {"channels: 1\n", "", ": channels: missing before mean", 5},
+      {"mean: !!opencv-matrix", "mean: [ 1, 2 ]", ": mean: expected an OpenCV matrix", 6},
+      {"   rows: 3", "   rows: 5", ": mean.rows: 5, but image_height is 3", 7},
+      {"   cols: 4", "   cols: 40", ": mean.cols: 40, but image_width is 4", 8},
+      {"   dt: f", "   dt: d", ": mean.dt: 'd', expected f (float, 1 channel(s)", 9},
+      {"   data: !!binary |", "   data: [ 1., 2. ]", ": mean.data: expected base64", 10},
+      {"   rows: 3\n", "", ": mean.data: comes before rows, cols and dt", 9},
       {first_data, "", ": mean.data: holds 24 bytes where the size and type need 72"},
-      {"      MWYg", "      M*Yg", ":11: mean.data: '*' in the base64 data"},
+      {"      MWYg", "      M*Yg", ": mean.data: '*' in the base64 data", 11},
       {"      MWYg", "      MmYg", ": mean.data: its header says '2f' where dt says '1f'"},
-      {"stddev: !!opencv-matrix", "stdev: !!opencv-matrix", ":13: unexpected field 'stdev'"},
+      {"stddev: !!opencv-matrix", "stdev: !!opencv-matrix", ": unexpected field 'stdev'", 13},
       {"stddev: !!opencv-matrix", "stddev: !!opencv-matrix\n   step: 4",
-       ":14: unexpected field 'stddev.step'"},
-      {"stddev", "mean", ":13: mean: given twice"},
+       ": unexpected field 'stddev.step'", 14},
+      {"stddev", "mean", ": mean: given twice", 13},
       {"image_width: 4", "image_width: 4\n" + std::string(2000, 'x'),
-       ":4: longer than 1024 characters"},
-      {"channels: 1", "channels 1", ":5: expected a field of the model"},
+       ": longer than 1024 characters", 4},
+      {"channels: 1", "channels 1", ": expected a field of the model", 5},
   };
   for (const Edit& edit : edits) {
     std::string text = good;
     ASSERT_NE(text.find(edit.from), std::string::npos) << edit.from;
     text.replace(text.find(edit.from), edit.from.size(), edit.to);
     const std::string path = write("edited.yml", text);
-    EXPECT_THAT(loadError(path), HasSubstr(path + edit.error)) << edit.from << " -> " << edit.to;
+    const std::string error = loadError(path);
+    EXPECT_THAT(error, HasSubstr(path + edit.error)) << edit.from << " -> " << edit.to;
+    if (edit.line > 0) {
+      EXPECT_THAT(error, EndsWith(" (line " + std::to_string(edit.line) + ")")) << edit.from;
+    }
   }
   EXPECT_THAT(loadError(write("empty.yml", "")), HasSubstr("empty.yml: empty file"));
   EXPECT_THAT(loadError(write("model.xml", "<?xml version=\"1.0\"?>\n")),
