@@ -1,7 +1,8 @@
-// Silhouette extraction: gain estimate; one pass over the rows that normalizes, range-tests
-// (vectorized) and runs the shadow test on the changed pixels only (BGR: the colour first; then a
-// plane fit four pixels at a time, joined to textured shadows by connectivity); morphology on
-// bit-packed rows; contour-based blob and hole cleanup; slow adaptation.
+// Silhouette extraction: gain estimate; one pass over the rows that range-tests (vectorized, a
+// bracket of the normalized value, exact where it cannot decide) and runs the shadow test on the
+// changed pixels only (BGR: the colour first; then a plane fit four pixels at a time, joined to
+// textured shadows by connectivity); morphology on bit-packed rows and contour-based blob and hole
+// cleanup, both within the box the opening leaves; slow adaptation.
 #include "tracker/vision/silhouette_extractor.h"
 
 #include <algorithm>
@@ -142,7 +143,8 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
   scratch_.ratio_squares = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
   scratch_.fit_columns.reserve(static_cast<std::size_t>(stddev.cols));
   for (Scratch::RatioSlot& slot : scratch_.ratio_slots)
-    slot.done.assign(static_cast<std::size_t>((stddev.cols + 64 * kRatioBlock - 1) / (64 * kRatioBlock)), 0);
+    slot.done.assign(
+        static_cast<std::size_t>((stddev.cols + 64 * kRatioBlock - 1) / (64 * kRatioBlock)), 0);
 
   const cv::Size size = roi_.size();
   lower_.create(size, CV_8UC(channels));

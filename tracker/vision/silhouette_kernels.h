@@ -62,8 +62,8 @@ struct PackedMask {
   void shrinkBox();
 };
 
-// Nonzero bytes of `src` (8-bit, one channel) become set bits; `dst` is resized to match and its box
-// is the set bits' rows and words.
+// Nonzero bytes of `src` (8-bit, one channel) become set bits; `dst` is resized to match and its
+// box is the set bits' rows and words.
 void pack(const cv::Mat& src, PackedMask& dst);
 // The box's pixels: set bits become 255, the others 0, in `dst` (the mask's size; allocated if
 // needed). Pixels outside the box are left as they are.
@@ -91,8 +91,8 @@ class RunMorphology {
   std::vector<int> distinct_widths_;  // the nonzero half widths
   std::vector<int> width_index_;  // per kernel row: its window in windows_, -1 for the row itself
   std::vector<std::vector<uint64_t>>
-      windows_;                 // per distinct width: each row's AND or OR over the run
-  std::vector<uint64_t> line_;  // one row with a border word on both sides
+      windows_;                        // per distinct width: each row's AND or OR over the run
+  std::vector<uint64_t> line_;         // one row with a border word on both sides
   std::vector<uint8_t> nonzero_rows_;  // per row of the mask: any bit set
   std::vector<uint64_t> result_;
 };

@@ -369,10 +369,11 @@ TEST(SilhouetteKernels, TestRowIsConvertToThenInRange) {
   cv::RNG rng(3);
   for (const int channels : {1, 3})
     for (const int cols : {5, 16, 37, 780})
-      for (const float scale : {0.0f, 0.37f, 0.93f, 0.999f, 1.0f, 1.0371f, 1.7f, 3.3f, 127.9f,
-                                300.0f}) {
-        cv::Mat in(1, cols, CV_8UC(channels)), normalized, wide, below(in.size(), CV_16SC(channels)),
-            above(in.size(), CV_16SC(channels)), lower, upper, expected;
+      for (const float scale :
+           {0.0f, 0.37f, 0.93f, 0.999f, 1.0f, 1.0371f, 1.7f, 3.3f, 127.9f, 300.0f}) {
+        cv::Mat in(1, cols, CV_8UC(channels)), normalized, wide,
+            below(in.size(), CV_16SC(channels)), above(in.size(), CV_16SC(channels)), lower, upper,
+            expected;
         rng.fill(in, cv::RNG::UNIFORM, 0, 256);
         in.convertTo(normalized, -1, static_cast<double>(scale));
         normalized.convertTo(wide, CV_16S);
