@@ -57,7 +57,9 @@ def main():
             ax.annotate(f"{y:.1f}", (x, y), textcoords="offset points", xytext=(0, 6),
                         ha="center", fontsize=8)
         ax.set_xlabel(labels[axis])
-        ax.set_xticks(xs)
+        if axis == "evals":
+            ax.set_xscale("log", base=2)
+        ax.set_xticks(xs, [str(x) for x in xs])
         ax.set_ylabel("step (ms)")
         ax.set_ylim(bottom=0)
         others = ", ".join(f"{BASE[k]} {k if BASE[k] != 1 else k[:-1]}" for k in BASE if k != axis)
