@@ -44,7 +44,6 @@ struct RestOfBody {
   std::vector<std::vector<Footprint>> explained;  // per camera: placed, then rest
   std::vector<RowSpan> spans;                     // the rest's footprints
   std::vector<PixelCounts> camera_counts;         // of the rest, per camera
-  PixelCounts counts;                             // of the rest, all cameras
   long renders = 0;
 };
 

@@ -74,12 +74,8 @@ FrameEstimate FactoredFilter::step(const std::vector<SilhouetteMask>& masks) {
       pool_.parallelFor(static_cast<int>(particles_.size()) * cameras, [&](int i, int worker) {
         placeRest(layer, i / cameras, static_cast<std::size_t>(i % cameras), masks, worker);
       });
-      for (std::size_t p = 0; p < particles_.size(); ++p) {
-        RestOfBody& rest = rest_[p];
-        rest.counts = PixelCounts();
-        for (const PixelCounts& counts : rest.camera_counts) rest.counts += counts;
-        estimate.segment_renders += rest.renders;
-      }
+      for (std::size_t p = 0; p < particles_.size(); ++p)
+        estimate.segment_renders += rest_[p].renders;
     }
     groupSamePoses(layer, count);
     pool_.parallelFor(static_cast<int>(pose_groups_.size()),

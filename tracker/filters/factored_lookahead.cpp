@@ -18,9 +18,10 @@ void FactoredFilter::rankByLookahead(const FactoredLayer& layer, int i,
   // The whole body: the parent's placed segments and the rest at their previous pose (counted
   // once per parent), then this candidate's segment and subtree over what those explain.
   const RestOfBody& rest = rest_[cand.parent];
-  PixelCounts total = rest.counts;
+  PixelCounts total;
   for (std::size_t c = 0; c < rig_.size(); ++c) {
     scratch.explained[c] = rest.explained[c];
+    total += rest.camera_counts[c];
     total += countFootprint(masks[c], candidateFootprints(i)[c], scratch.explained[c].data(),
                             static_cast<int>(scratch.explained[c].size()));
   }
