@@ -347,6 +347,15 @@ class ConfigParser : public ConfigReader {
                    "] is " + camera.driver + ")");
     }
 
+    if (const YAML::Node slow = root["scene_slow_motion"]) {
+      config.scene_slow_motion = number(slow, "scene_slow_motion", 1, 1000);
+      for (const CameraConfig& camera : config.cameras)
+        if (camera.driver != "fake")
+          fail(slow, "scene_slow_motion",
+               "only the fake scene plays in slow motion (cameras[" +
+                   std::to_string(camera.index) + "] is " + camera.driver + ")");
+    }
+
     // Only a played motion has a subject whose body was fitted, and a first pose to stand in.
     const auto needsMotion = [&](const char* key) {
       const YAML::Node node = root[key];
@@ -468,6 +477,7 @@ class ConfigParser : public ConfigReader {
               "log_level",
               "scene_motion",
               "scene_empty_seconds",
+              "scene_slow_motion",
               "scene_fit_pose_seconds",
               "track_subject_body",
               "scene_subject_seed",

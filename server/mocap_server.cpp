@@ -206,6 +206,7 @@ Status MocapServer::openFakeScene(PipelineInputs& inputs) {
   options.cameras = config.cameras;
   options.seed = config.tracker.filter.seed;
   options.empty_seconds = config.scene_empty_seconds;
+  options.slow_motion = config.scene_slow_motion;
   options.fit_pose_seconds = config.scene_fit_pose_seconds;
   options.subject = subject_body_ ? subject_body_.get() : model_.get();
   options.rig = rig_.get();

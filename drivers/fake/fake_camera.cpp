@@ -66,12 +66,12 @@ void FakeSceneCamera::run() {
   FakeScene& scene = *scene_;
   const FakeSceneOptions& options = scene.options();
   const bool real_time = options.pacing == FakePacing::kRealTime;
-  const int64_t period = scene.periodNs();
+  const int64_t interval = scene.intervalNs();
   FakeRenderScratch scratch(scene.model(), scene.rig()[rig_camera_].height);
   // Real time: join the scene's clock where it is now, like a camera switched on mid-session.
   const auto currentSequence = [&] {
     const int64_t since_epoch = monotonicNowNs() - scene.epochNs();
-    return since_epoch <= 0 ? uint64_t{0} : static_cast<uint64_t>((since_epoch + period - 1) / period);
+    return since_epoch <= 0 ? uint64_t{0} : static_cast<uint64_t>((since_epoch + interval - 1) / interval);
   };
   uint64_t sequence = real_time ? currentSequence() : 0;
   uint32_t lost = 0;

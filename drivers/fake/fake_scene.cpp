@@ -81,6 +81,8 @@ FakeScene::FakeScene(FakeSceneOptions options) : options_(std::move(options)) {}
 
 Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options) {
   if (!(options.fps > 0)) return Status::Error("fake scene: fps must be positive");
+  if (!(options.slow_motion >= 1 && options.slow_motion <= 1000))
+    return Status::Error("fake scene: slow_motion must be in [1, 1000]");
   if (options.noise_sigma < 0) return Status::Error("fake scene: noise_sigma must not be negative");
   if (options.faults.drop_rate < 0 || options.faults.drop_rate >= 1) {
     return Status::Error("fake scene: drop_rate must be in [0, 1)");
@@ -137,6 +139,7 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
   scene->rig_ = o.rig;
   o.cameras = static_cast<int>(scene->rig_.size());
   scene->period_ns_ = static_cast<int64_t>(std::llround(1e9 / o.fps));
+  scene->interval_ns_ = static_cast<int64_t>(std::llround(1e9 * o.slow_motion / o.fps));
 
   std::size_t largest_image = 0;
   for (std::size_t c = 0; c < scene->rig_.size(); ++c) {

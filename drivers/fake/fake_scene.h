@@ -63,6 +63,11 @@ struct FakeSceneOptions {
   int width = 780;
   int height = 580;
   double fps = 25.0;
+  // Wall-clock seconds per second of the scene (at least 1): the scene plays in slow motion, its
+  // frames delivered that much further apart in real time (their timestamps with them), for a
+  // consumer too slow to follow it live, such as the daemon under a sanitizer. The motion, the fit
+  // pose's turn and the faults keep the scene's own time, so the frames are the same.
+  double slow_motion = 1.0;
   uint64_t seed = 1;
   double noise_sigma = 3.0;  // grey levels
   bool gray = false;         // CV_8UC1 images instead of BGR
@@ -129,12 +134,14 @@ class FakeScene {
   const Motion& motion() const { return *motion_; }
   const Rig& rig() const { return rig_; }
   int64_t periodNs() const { return period_ns_; }
+  // Real time between two frames: the period in slow motion (FakeSceneOptions::slow_motion).
+  int64_t intervalNs() const { return interval_ns_; }
 
   // Frame 0's exposure time (CLOCK_MONOTONIC ns), fixed by the first call: the cameras share it,
   // so frame N of every camera is the same instant and the same pose.
   int64_t epochNs();
   int64_t exposureTimeNs(uint64_t sequence) {
-    return epochNs() + static_cast<int64_t>(sequence) * period_ns_;
+    return epochNs() + static_cast<int64_t>(sequence) * interval_ns_;
   }
   // Whether the subject is in view in frame `sequence` (options().empty_frames), whether it stands
   // in the fit pose then (options().fit_pose_frames), and which frame of the motion it shows (0
@@ -190,6 +197,7 @@ class FakeScene {
   int fit_turn_dof_ = -1;     // the root's rotation about Z, which the turns change
   Rig rig_;
   int64_t period_ns_ = 0;
+  int64_t interval_ns_ = 0;  // period_ns_ in slow motion
   std::vector<cv::Mat> backgrounds_;
   // A long strip of Gaussian noise, split into its positive and negative parts, read at a
   // per-frame offset.

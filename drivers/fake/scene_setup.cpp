@@ -18,6 +18,7 @@ FakeDriverOptions fakeDriverOptions(const FakeSceneSetupOptions& setup) {
   options.scene.fps = first.fps;
   options.scene.gray = first.pixel_format == "GREY";
   options.scene.seed = setup.seed;
+  options.scene.slow_motion = setup.slow_motion;
   if (setup.subject) options.scene.model = std::make_shared<const BodyModel>(*setup.subject);
   if (setup.rig) options.scene.rig = *setup.rig;
   options.scene.motion = setup.motion;

@@ -39,6 +39,7 @@ struct FakeSceneSetupOptions {
   uint64_t seed = 1;
   double empty_seconds = 0;              // FakeSceneOptions::empty_frames, in seconds
   double fit_pose_seconds = 0;           // FakeSceneOptions::fit_pose_frames, in seconds
+  double slow_motion = 1;                // FakeSceneOptions::slow_motion
   const BodyModel* subject = nullptr;    // null: the scene's default body
   const Rig* rig = nullptr;              // null: the scene's default rig
   std::shared_ptr<const Motion> motion;  // null: the scene's generated motion

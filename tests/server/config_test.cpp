@@ -287,6 +287,10 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "scene_empty_seconds: -1\n", "scene_empty_seconds: must be between 0 and 3600"},
       {"cameras:\n  - {driver: v4l2, device: /dev/video0}\nscene_empty_seconds: 2\n",
        "test.yaml:3: scene_empty_seconds: only the fake scene can be empty (cameras[0] is v4l2)"},
+      {cameras + "scene_slow_motion: 0.5\n", "scene_slow_motion: must be between 1 and 1000"},
+      {"cameras:\n  - {driver: v4l2, device: /dev/video0}\nscene_slow_motion: 4\n",
+       "test.yaml:3: scene_slow_motion: only the fake scene plays in slow motion (cameras[0] is "
+       "v4l2)"},
       {cameras + "scene_motion: /no/such/walk.bvh\n",
        "test.yaml:3: scene_motion: no such file: /no/such/walk.bvh"},
       {cameras + "body_model: builtin:hand\nscene_motion: " + walk + "\n",
@@ -445,6 +449,8 @@ TEST(ConfigTest, SilhouetteSourceAndBackgroundDirectory) {
   EXPECT_EQ(
       parseConfig(cameras + "scene_empty_seconds: 2.5\n", "test.yaml", ".").scene_empty_seconds,
       2.5);
+  EXPECT_EQ(parseConfig(cameras + "scene_slow_motion: 4\n", "test.yaml", ".").scene_slow_motion, 4);
+  EXPECT_EQ(parseConfig(cameras, "test.yaml", ".").scene_slow_motion, 1);
   EXPECT_TRUE(parseConfig(cameras, "test.yaml", ".").true_silhouettes);
   EXPECT_TRUE(
       parseConfig(cameras + "silhouettes: ground_truth\n", "test.yaml", ".").true_silhouettes);

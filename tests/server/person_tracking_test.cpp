@@ -200,7 +200,8 @@ TEST_F(EndToEndTest, ReacquireFindsThePersonAgainOrSaysWhyNot) {
     v1::ReacquireResponse response;
     ASSERT_TRUE(stub->Reacquire(&context, {}, &response).ok());
     // Found within the next frame sets (a generous limit, not a timing assertion).
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    const auto deadline =
+        std::chrono::steady_clock::now() + test::slowed(std::chrono::seconds(20));
     while (acquisitions() == 0 && std::chrono::steady_clock::now() < deadline)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     EXPECT_EQ(acquisitions(), 1u);

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <utility>
@@ -35,11 +36,29 @@
 
 namespace mocap::test {
 
+// How many times slower than a plain build the daemon runs here: MOCAP_TEST_SLOWDOWN (1 to 100,
+// default 1), which deploy/test sets for sanitizer builds. The fake scene plays that much slower
+// (scene_slow_motion) and the tests' waits last that much longer, so a slow tracker still sees
+// every frame set and the same assertions hold.
+inline double testSlowdown() {
+  const char* text = std::getenv("MOCAP_TEST_SLOWDOWN");
+  const double slowdown = text ? std::atof(text) : 1.0;
+  return std::clamp(slowdown, 1.0, 100.0);
+}
+
+// `wait` scaled by testSlowdown().
+template <typename Duration>
+std::chrono::milliseconds slowed(Duration wait) {
+  return std::chrono::milliseconds(static_cast<int64_t>(
+      std::chrono::duration<double, std::milli>(wait).count() * testSlowdown()));
+}
+
 // The embedded default (fake scene, 2 cameras, 780x580, 25 Hz) on a port the OS picks, without
 // the web view (its own suite turns it on): the view subscribes to the poses, and the other
-// suites count subscribers.
+// suites count subscribers. In slow motion under a sanitizer (testSlowdown()).
 inline ServerConfig sceneConfig() {
   ServerConfig config = parseConfig(kDefaultConfigYaml, "<embedded default>", ".");
+  config.scene_slow_motion = testSlowdown();
   config.listen = "127.0.0.1:0";
   config.web.enabled = false;
   config.log_level = LogLevel::kWarning;
@@ -51,24 +70,25 @@ inline std::unique_ptr<v1::MocapService::Stub> connect(int port) {
                                                        grpc::InsecureChannelCredentials()));
 }
 
-// Asks the daemon to learn the background from `frames` frames, waiting at most `deadline`.
+// Asks the daemon to learn the background from `frames` frames, waiting at most `deadline`
+// (slowed()).
 inline grpc::Status captureBackground(v1::MocapService::Stub& stub, uint32_t frames,
                                       v1::CaptureBackgroundResponse& response,
                                       std::chrono::seconds deadline = std::chrono::seconds(30)) {
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + deadline);
+  context.set_deadline(std::chrono::system_clock::now() + slowed(deadline));
   v1::CaptureBackgroundRequest request;
   request.set_frames(frames);
   return stub.CaptureBackground(&context, request, &response);
 }
 
 // Asks the daemon to fit the body from `frame_sets` frame sets (and to track with it, with
-// `apply`), waiting at most `deadline`.
+// `apply`), waiting at most `deadline` (slowed()).
 inline grpc::Status fitBody(v1::MocapService::Stub& stub, int frame_sets,
                             v1::FitBodyResponse& response, bool apply = false,
                             std::chrono::seconds deadline = std::chrono::seconds(60)) {
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + deadline);
+  context.set_deadline(std::chrono::system_clock::now() + slowed(deadline));
   v1::FitBodyRequest request;
   request.set_frame_sets(frame_sets);
   request.set_apply(apply);
@@ -176,10 +196,10 @@ inline grpc::StatusCode startRecording(v1::MocapService::Stub& stub, const std::
 
 // Starts recording into `root`/`name`. A recording starts once every camera has sent a frame,
 // and a first pose does not prove it (a set may lack a camera that is late, as under a loaded
-// machine): the start is retried for up to 5 s while the daemon says so.
+// machine): the start is retried for up to 5 s (slowed()) while the daemon says so.
 inline void startRecordingWhenReady(v1::MocapService::Stub& stub, const std::string& name) {
   grpc::StatusCode started = startRecording(stub, name);
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  const auto give_up = std::chrono::steady_clock::now() + slowed(std::chrono::seconds(5));
   while (started == grpc::StatusCode::FAILED_PRECONDITION &&
          std::chrono::steady_clock::now() < give_up) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));

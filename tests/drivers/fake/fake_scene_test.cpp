@@ -363,6 +363,32 @@ TEST(FakeSceneCamera, AsFastAsPossibleDeliversEveryFrameOnePeriodApart) {
   }
 }
 
+// Slow motion: the same frames, each K periods apart on the clock and in its timestamp.
+TEST(FakeSceneCamera, SlowMotionDeliversTheSameFramesFurtherApart) {
+  FakeDriverOptions options = smallScene(FakePacing::kRealTime, 0);
+  options.scene.slow_motion = 3;
+  FakeDriver slow(options);
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<Frame> frames = firstFrames(slow, sceneCamera(0, options), 6);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_GE(frames.size(), 6u);
+  // Five intervals of 3 periods of 20 ms at least (the first frame may come at once).
+  EXPECT_GE(seconds, 5 * 0.060);
+  FakeDriver real_time(smallScene(FakePacing::kAsFastAsPossible, 0));
+  const std::vector<Frame> reference = firstFrames(real_time, sceneCamera(0, options), 60);
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    const uint64_t periods = frames[i].sequence - frames[i - 1].sequence;
+    EXPECT_EQ(frames[i].timestamp_ns - frames[i - 1].timestamp_ns,
+              static_cast<int64_t>(periods) * 60'000'000);
+    ASSERT_LT(frames[i].sequence, reference.size());
+    const Frame& same = reference[frames[i].sequence];
+    EXPECT_EQ(cv::norm(frames[i].image, same.image, cv::NORM_INF), 0) << frames[i].sequence;
+  }
+  options.scene.slow_motion = 0.5;
+  EXPECT_FALSE(FakeScene::create(options.scene).ok());
+}
+
 TEST(FakeSceneCamera, GrayOutputWhenConfigured) {
   FakeDriverOptions options = smallScene(FakePacing::kAsFastAsPossible, 2);
   FakeDriver driver(options);
