@@ -108,7 +108,8 @@ struct ServerConfig {
   double scene_empty_seconds = 0;
   // The fake scene: wall-clock seconds per second of the scene, from 1 (real time) to 1000. In slow
   // motion a machine too slow to track the scene live (a sanitizer build) still tracks every frame
-  // set; the motion itself is unchanged.
+  // set; the motion itself is unchanged. The synchronizer's period (and so its default tolerance
+  // and deadline) is the frames' spacing on the clock.
   double scene_slow_motion = 1;
   // With a scene_motion: seconds the subject then stands still in the body model's fit_pose, where
   // and facing the way the motion starts, before it moves (time to fit the body: FitBody).

@@ -98,8 +98,10 @@ void Pipeline::checkRig() const {
 std::unique_ptr<FrameSynchronizer> Pipeline::makeSynchronizer() const {
   SyncConfig sync;
   sync.camera_count = static_cast<int>(cameras_.size());
-  sync.frame_period =
-      std::chrono::nanoseconds(static_cast<int64_t>(1e9 / cameras_.front().config.fps));
+  // A fake scene in slow motion delivers its frames that many periods apart.
+  const double slow_motion = replay_ ? 1.0 : config_.scene_slow_motion;
+  sync.frame_period = std::chrono::nanoseconds(
+      static_cast<int64_t>(1e9 * slow_motion / cameras_.front().config.fps));
   if (config_.sync.tolerance_ms)
     sync.tolerance =
         std::chrono::nanoseconds(static_cast<int64_t>(*config_.sync.tolerance_ms * 1e6));

@@ -37,9 +37,10 @@
 namespace mocap::test {
 
 // How many times slower than a plain build the daemon runs here: MOCAP_TEST_SLOWDOWN (1 to 100,
-// default 1), which deploy/test sets for sanitizer builds. The fake scene plays that much slower
-// (scene_slow_motion) and the tests' waits last that much longer, so a slow tracker still sees
-// every frame set and the same assertions hold.
+// default 1), which deploy/test sets for sanitizer builds. The person's scene plays that much
+// slower (scene_slow_motion; the hand's tracker keeps up) and the tests' waits for a tracker or a
+// fit last that much longer, so a slow tracker still sees every frame set and the same assertions
+// hold.
 inline double testSlowdown() {
   const char* text = std::getenv("MOCAP_TEST_SLOWDOWN");
   const double slowdown = text ? std::atof(text) : 1.0;
@@ -55,10 +56,9 @@ std::chrono::milliseconds slowed(Duration wait) {
 
 // The embedded default (fake scene, 2 cameras, 780x580, 25 Hz) on a port the OS picks, without
 // the web view (its own suite turns it on): the view subscribes to the poses, and the other
-// suites count subscribers. In slow motion under a sanitizer (testSlowdown()).
+// suites count subscribers.
 inline ServerConfig sceneConfig() {
   ServerConfig config = parseConfig(kDefaultConfigYaml, "<embedded default>", ".");
-  config.scene_slow_motion = testSlowdown();
   config.listen = "127.0.0.1:0";
   config.web.enabled = false;
   config.log_level = LogLevel::kWarning;
@@ -267,9 +267,11 @@ inline v1::Skeleton skeletonOf(v1::MocapService::Stub& stub) {
   return skeleton;
 }
 
-// The fake scene playing the CMU walk, tracked with docs/human.md's options for people.
+// The fake scene playing the CMU walk, tracked with docs/human.md's options for people; in slow
+// motion under a sanitizer (testSlowdown()).
 inline ServerConfig walkingPersonConfig() {
   ServerConfig config = test::sceneConfig();
+  config.scene_slow_motion = testSlowdown();
   config.body_model = "builtin:human";
   config.scene_motion = MOCAP_SHARED_DIR "/data/motion/cmu_131_01_walk.bvh";
   const int threads = config.tracker.threads;
