@@ -121,8 +121,8 @@ void BodyFitJob::poll() {
   if (collecting_ && collect(*collecting_, nullptr)) collecting_.reset();
 }
 
-void BodyFitJob::add(const std::vector<SilhouetteMask>& masks) {
-  if (collecting_ && collect(*collecting_, &masks)) collecting_.reset();
+void BodyFitJob::add(const std::vector<SilhouetteMask>& masks, bool complete) {
+  if (collecting_ && collect(*collecting_, complete ? &masks : nullptr)) collecting_.reset();
 }
 
 void BodyFitJob::close() {

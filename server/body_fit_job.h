@@ -77,8 +77,10 @@ class BodyFitJob {
   // Mask thread, once per loop: takes a queued request, and ends a collection that has waited too
   // long for frame sets.
   void poll();
-  // Mask thread: the silhouettes of a set handed to the tracker.
-  void add(const std::vector<SilhouetteMask>& masks);
+  // Mask thread: the silhouettes of a set handed to the tracker. A fit takes only complete sets
+  // (every camera's frame of the same instant): a camera missing from a set leaves its silhouette
+  // of an earlier frame, or none yet, and the subject turns between frames.
+  void add(const std::vector<SilhouetteMask>& masks, bool complete);
   // Mask thread, as it ends: refuses further requests and ends a collection under way.
   void close();
   // Tracker thread: whether a body was applied since the last call.
