@@ -277,8 +277,7 @@ void Pipeline::maskLoop() {
       continue;
     }
     if (mask_observer_) mask_observer_(*set, latest);
-    body_fit_.add(latest, std::all_of(set->frames.begin(), set->frames.end(),
-                                      [](const std::optional<Frame>& f) { return f.has_value(); }));
+    body_fit_.add(latest, set->complete());
     masks.masks = latest;
     masks_.push(std::move(masks));
   }
