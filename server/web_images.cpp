@@ -19,6 +19,9 @@ int64_t steadyNowNs() {
 // How long after a browser's last image request frames are still kept for it.
 constexpr auto kWantedFor = std::chrono::seconds(2);
 constexpr int kJpegQuality = 80;
+// Wider images are halved until they fit: a quarter of the pixels costs about a quarter of the
+// encoding, and the page draws the image at the camera's size whatever its own.
+constexpr int kMaxJpegWidth = 640;
 // The tint's weight in 256ths (0.6): every tinted pixel is then at least 51 greener than it is
 // red or blue, whatever its colour (pure red becomes 102,153,0), so the silhouette stays
 // distinguishable from the subject.
@@ -102,7 +105,11 @@ std::optional<std::string> CameraImages::jpeg(std::size_t camera) {
   }
   if (sequence != cached.set_sequence || cached.jpeg.empty()) {
     tintInto(image, mask.get(), cached.tinted);
-    cv::imencode(".jpg", cached.tinted, cached.bytes, {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
+    double scale = 1;
+    while (cached.tinted.cols * scale > kMaxJpegWidth) scale /= 2;
+    if (scale < 1) cv::resize(cached.tinted, cached.scaled, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::imencode(".jpg", scale < 1 ? cached.scaled : cached.tinted, cached.bytes,
+                 {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
     cached.jpeg.assign(cached.bytes.begin(), cached.bytes.end());
     cached.set_sequence = sequence;
   }

@@ -1,6 +1,7 @@
 // The web view's camera images: the newest frame set's images and silhouettes, kept on the mask
 // thread only while a browser asks for them, and encoded to JPEG on the web server's threads at
-// most a few times a second per camera, whoever asks.
+// most a few times a second per camera, whoever asks, halved in size until at most 640 pixels wide
+// (a page shows the cameras side by side at about that size).
 #pragma once
 
 #include <atomic>
@@ -40,6 +41,7 @@ class CameraImages {
   struct Cached {
     std::mutex mutex;
     cv::Mat tinted;                    // reused: a new 1.4 MB buffer per image costs page faults
+    cv::Mat scaled;                    // likewise
     std::vector<unsigned char> bytes;  // likewise
     std::string jpeg;
     uint64_t set_sequence = 0;
