@@ -103,6 +103,8 @@ Expected<std::shared_ptr<FakeScene>> FakeScene::create(FakeSceneOptions options)
                              scene->model_->name + " has " + std::to_string(dofs) + " DOFs");
       }
     }
+    if (o.step_out_frames > 0 && o.fit_pose_frames == 0)
+      return Status::Error("fake scene: stepping out of the fit pose needs fit pose frames");
     if (o.fit_pose_frames > 0) {
       const BodyModel& model = *scene->model_;
       if (!model.fit_pose)
@@ -182,8 +184,8 @@ int64_t FakeScene::epochNs() {
 }
 
 std::size_t FakeScene::motionFrame(uint64_t sequence) const {
-  if (!subjectInView(sequence) || inFitPose(sequence)) return 0;
-  sequence -= options_.empty_frames + options_.fit_pose_frames;
+  if (!subjectInView(sequence) || inFitPose(sequence) || steppingOut(sequence)) return 0;
+  sequence -= options_.empty_frames + options_.fit_pose_frames + options_.step_out_frames;
   // Forward then backward: a looped motion would jump from its last pose to its first.
   const uint64_t n = motion_->size();
   if (n == 1) return 0;
@@ -194,6 +196,15 @@ std::size_t FakeScene::motionFrame(uint64_t sequence) const {
 
 Eigen::VectorXd FakeScene::truePose(uint64_t sequence) const {
   if (!subjectInView(sequence)) return Eigen::VectorXd();
+  if (steppingOut(sequence)) {
+    // Eased in and out (smoothstep), so the subject neither starts nor arrives with a jerk; the
+    // turns have ended facing the motion's way.
+    const double t =
+        static_cast<double>(sequence - options_.empty_frames - options_.fit_pose_frames + 1) /
+        static_cast<double>(options_.step_out_frames + 1);
+    const double w = t * t * (3 - 2 * t);
+    return (1 - w) * fit_pose_ + w * motion_->front();
+  }
   if (!inFitPose(sequence)) return (*motion_)[motionFrame(sequence)];
   Eigen::VectorXd pose = fit_pose_;
   if (fit_turn_dof_ >= 0) {

@@ -84,6 +84,10 @@ struct FakeSceneOptions {
   // stands and faces, once the turns are over) replaced by the fit pose's. Needs a model with a
   // fit_pose.
   uint64_t fit_pose_frames = 0;
+  // Then, frames in which the subject moves from the fit pose into the motion's first pose, every
+  // DOF eased from one to the other, as a person lowers the arms and sets off instead of jumping
+  // there in one frame (which no tracker follows). Needs fit_pose_frames.
+  uint64_t step_out_frames = 0;
   // Set: the cameras see a person with these proportions and clothes (tracker/sim/subject.h), not
   // the model: the subject is posed by the model's joints at each true pose, and the truth
   // (silhouettes, joints) is the subject's. Needs a model with the human's points. Unset: the
@@ -145,10 +149,14 @@ class FakeScene {
   }
   // Whether the subject is in view in frame `sequence` (options().empty_frames), whether it stands
   // in the fit pose then (options().fit_pose_frames), and which frame of the motion it shows (0
-  // while it stands).
+  // while it stands and steps out of the fit pose).
   bool subjectInView(uint64_t sequence) const { return sequence >= options_.empty_frames; }
   bool inFitPose(uint64_t sequence) const {
     return subjectInView(sequence) && sequence - options_.empty_frames < options_.fit_pose_frames;
+  }
+  bool steppingOut(uint64_t sequence) const {
+    return subjectInView(sequence) && !inFitPose(sequence) &&
+           sequence - options_.empty_frames - options_.fit_pose_frames < options_.step_out_frames;
   }
   std::size_t motionFrame(uint64_t sequence) const;
   // The subject's DOF vector in frame `sequence` (the standing pose while it stands in the fit

@@ -25,6 +25,9 @@ FakeDriverOptions fakeDriverOptions(const FakeSceneSetupOptions& setup) {
   options.scene.empty_frames = static_cast<uint64_t>(std::llround(setup.empty_seconds * first.fps));
   options.scene.fit_pose_frames =
       static_cast<uint64_t>(std::llround(setup.fit_pose_seconds * first.fps));
+  // A second to step out of the fit pose into the motion, as a person would.
+  if (options.scene.fit_pose_frames > 0)
+    options.scene.step_out_frames = static_cast<uint64_t>(std::llround(first.fps));
   if (setup.subject_seed) options.scene.subject = drawSubjectParams(*setup.subject_seed);
   return options;
 }

@@ -38,7 +38,8 @@ struct FakeSceneSetupOptions {
   std::vector<CameraConfig> cameras;
   uint64_t seed = 1;
   double empty_seconds = 0;              // FakeSceneOptions::empty_frames, in seconds
-  double fit_pose_seconds = 0;           // FakeSceneOptions::fit_pose_frames, in seconds
+  // FakeSceneOptions::fit_pose_frames, in seconds; then 1 s of step_out_frames.
+  double fit_pose_seconds = 0;
   double slow_motion = 1;                // FakeSceneOptions::slow_motion
   const BodyModel* subject = nullptr;    // null: the scene's default body
   const Rig* rig = nullptr;              // null: the scene's default rig

@@ -227,6 +227,52 @@ TEST(FakeSceneCamera, TheSubjectStandsInTheFitPoseBeforeTheMotion) {
   EXPECT_THAT(refused.error(), HasSubstr("the body model 'hand' has no fit_pose"));
 }
 
+// After the fit pose the subject steps out of it into the motion's first pose over
+// step_out_frames, never faster than the body's speed limits (a jump there loses any tracker);
+// then the motion plays from its first frame. Stepping out needs a fit pose to step out of.
+TEST(FakeSceneCamera, TheSubjectStepsOutOfTheFitPoseWithinTheSpeedLimits) {
+  FakeSceneOptions options = smallScene(FakePacing::kAsFastAsPossible, 0).scene;
+  const BodyModel human = builtinHumanModel();
+  options.model = std::make_shared<const BodyModel>(human);
+  options.generated_frames = 20;
+  options.empty_frames = 2;
+  options.fit_pose_frames = 3;
+  // The largest DOF change from one frame to the next over [first, last), in speed limits.
+  const auto fastest = [&](const FakeScene& scene, uint64_t first, uint64_t last) {
+    double most = 0;
+    for (uint64_t f = first; f + 1 < last; ++f) {
+      const Eigen::VectorXd change = scene.truePose(f + 1) - scene.truePose(f);
+      for (std::size_t d = 0; d < human.dofs.size(); ++d)
+        most = std::max(most, std::abs(change[static_cast<Eigen::Index>(d)]) /
+                                  human.dofs[d].max_speed);
+    }
+    return most;
+  };
+  const Expected<std::shared_ptr<FakeScene>> jumping = FakeScene::create(options);
+  ASSERT_TRUE(jumping.ok()) << jumping.error();
+  ASSERT_GT(fastest(*jumping.value(), 4, 6), 1.0);  // without: from the fit pose in one frame
+
+  options.step_out_frames = 25;
+  const Expected<std::shared_ptr<FakeScene>> created = FakeScene::create(options);
+  ASSERT_TRUE(created.ok()) << created.error();
+  const FakeScene& scene = *created.value();
+  EXPECT_LE(fastest(scene, 4, 31), 0.5);
+  for (uint64_t f = 5; f < 30; ++f) {
+    EXPECT_FALSE(scene.inFitPose(f)) << f;
+    EXPECT_TRUE(scene.steppingOut(f)) << f;
+    EXPECT_EQ(scene.motionFrame(f), 0u) << f;
+  }
+  EXPECT_FALSE(scene.steppingOut(30));
+  EXPECT_EQ(scene.truePose(30), scene.motion().front());
+  EXPECT_EQ(scene.truePose(32), scene.motion()[2]);
+  EXPECT_EQ(scene.motionFrame(32), 2u);
+
+  options.fit_pose_frames = 0;
+  const Expected<std::shared_ptr<FakeScene>> refused = FakeScene::create(options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.error(), HasSubstr("stepping out of the fit pose needs fit pose frames"));
+}
+
 // A human scene seen by two 320x240 cameras, noiseless so a painted pixel is one the person covers;
 // with `subject_seed`, the simulated person drawn from it. The motion moves every joint, the pelvis
 // bobbing a few centimetres about its standing height as a person's does.
