@@ -107,7 +107,8 @@ std::optional<std::string> CameraImages::jpeg(std::size_t camera) {
     tintInto(image, mask.get(), cached.tinted);
     double scale = 1;
     while (cached.tinted.cols * scale > kMaxJpegWidth) scale /= 2;
-    if (scale < 1) cv::resize(cached.tinted, cached.scaled, cv::Size(), scale, scale, cv::INTER_AREA);
+    if (scale < 1)
+      cv::resize(cached.tinted, cached.scaled, cv::Size(), scale, scale, cv::INTER_AREA);
     cv::imencode(".jpg", scale < 1 ? cached.scaled : cached.tinted, cached.bytes,
                  {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
     cached.jpeg.assign(cached.bytes.begin(), cached.bytes.end());

@@ -37,7 +37,7 @@ struct FakeSceneSetupOptions {
   // are the scene's.
   std::vector<CameraConfig> cameras;
   uint64_t seed = 1;
-  double empty_seconds = 0;              // FakeSceneOptions::empty_frames, in seconds
+  double empty_seconds = 0;  // FakeSceneOptions::empty_frames, in seconds
   // FakeSceneOptions::fit_pose_frames, in seconds; then 1 s of step_out_frames.
   double fit_pose_seconds = 0;
   double slow_motion = 1;                // FakeSceneOptions::slow_motion

@@ -243,8 +243,8 @@ TEST(FakeSceneCamera, TheSubjectStepsOutOfTheFitPoseWithinTheSpeedLimits) {
     for (uint64_t f = first; f + 1 < last; ++f) {
       const Eigen::VectorXd change = scene.truePose(f + 1) - scene.truePose(f);
       for (std::size_t d = 0; d < human.dofs.size(); ++d)
-        most = std::max(most, std::abs(change[static_cast<Eigen::Index>(d)]) /
-                                  human.dofs[d].max_speed);
+        most = std::max(most,
+                        std::abs(change[static_cast<Eigen::Index>(d)]) / human.dofs[d].max_speed);
     }
     return most;
   };
