@@ -4,6 +4,8 @@
 #include <httplib.h>
 
 #include <pthread.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <charconv>
 #include <fstream>
@@ -29,6 +31,10 @@ constexpr const char* kThreeDirectory = "/usr/share/javascript/three/";
 constexpr std::size_t kServerThreads = 24;
 constexpr int kMaxStreams = 16;
 constexpr const char* kThreadName = "mocapd-web";
+// The view's threads run at this niceness (the pipeline's at 0): on a busy machine the tracker
+// wins a contended core and the view loses frames, as a slow browser does. At 10 a view thread
+// still gets about a tenth of a contended core, more than one browser needs (docs/web.md).
+constexpr int kViewNiceness = 10;
 // A camera's image is encoded at most this often (5 Hz), however many browsers ask.
 constexpr auto kImageInterval = std::chrono::milliseconds(200);
 // An idle event stream sends a comment this often, which also finds a browser that left.
@@ -55,15 +61,22 @@ std::string readFile(const std::string& path) {
   return text.str();
 }
 
-// The server's pool, its threads named so that `top -H` and tests/bench/web_cost.py tell the web
-// view's CPU from the tracker's: each names itself when it takes its first connection.
+// Names the calling thread as the view's (so that `top -H` and tests/bench/web_cost.py tell its
+// CPU from the tracker's) and lowers its priority to kViewNiceness. Best effort: a failure leaves
+// the thread as it was.
+void becomeViewThread() {
+  pthread_setname_np(pthread_self(), kThreadName);
+  setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kViewNiceness);
+}
+
+// The server's pool: each thread becomes a view thread when it takes its first connection.
 class NamedThreadPool final : public httplib::TaskQueue {
  public:
   explicit NamedThreadPool(std::size_t threads) : pool_(threads) {}
   void enqueue(std::function<void()> task) override {
     pool_.enqueue([task = std::move(task)] {
-      thread_local const bool named = pthread_setname_np(pthread_self(), kThreadName) == 0;
-      (void)named;
+      thread_local const bool became = (becomeViewThread(), true);
+      (void)became;
       task();
     });
   }
@@ -211,7 +224,7 @@ Status WebView::start() {
     return Status::Error("web.listen: cannot listen on " + listen + " (address in use or invalid)");
   subscribed_ = publisher_.subscribe(this);
   listener_ = std::thread([this] {
-    pthread_setname_np(pthread_self(), kThreadName);
+    becomeViewThread();
     server_->listen_after_bind();
   });
   return Status::Ok();
@@ -246,6 +259,16 @@ void WebView::finish() {
     closing_ = true;
   }
   pose_changed_.notify_all();
+}
+
+std::shared_ptr<const std::string> WebView::poseEvent(const SharedPose& pose, uint64_t count) {
+  std::lock_guard lock(event_mutex_);
+  if (event_count_ != count) {
+    newest_event_ = std::make_shared<const std::string>(
+        "data: " + poseJson(*pose, pipeline_.trackedBody(), rig_) + "\n\n");
+    event_count_ = count;
+  }
+  return newest_event_;
 }
 
 bool WebView::authorized(const httplib::Request& request, httplib::Response& response) const {
@@ -357,11 +380,9 @@ void WebView::streamPoses(httplib::Response& response) {
             *last_sent = poses_offered_;
           }
         }
-        // Serialized here, on this browser's thread: a slow browser costs only its own thread.
-        const std::string event =
-            pose ? "data: " + poseJson(*pose, pipeline_.trackedBody(), rig_) + "\n\n"
-                 : std::string(": waiting\n\n");
-        return sink.write(event.data(), event.size());
+        if (!pose) return sink.write(": waiting\n\n", 11);
+        const std::shared_ptr<const std::string> event = poseEvent(pose, *last_sent);
+        return sink.write(event->data(), event->size());
       },
       [this](bool) {
         std::lock_guard lock(pose_mutex_);

@@ -6,8 +6,10 @@
 //
 // A slow browser loses poses and images, never slows the tracker or the gRPC subscribers: the
 // view is one publisher subscriber holding only the newest pose (latest wins), each event-stream
-// client waits for a newer one on its own server thread, and images are encoded on the server's
-// threads from the newest frame set, at most 5 times a second per camera.
+// client waits for a newer one on its own server thread (each pose serialized once, by the first
+// stream to send it), and images are encoded on the server's threads from the newest frame set, at
+// most 5 times a second per camera. The server's threads run at a lower priority than the
+// pipeline's.
 #pragma once
 
 #include <condition_variable>
@@ -57,6 +59,8 @@ class WebView final : public PoseSubscriber {
   void addControlRoutes();
   // An event stream of the newest poses, for one browser.
   void streamPoses(httplib::Response& response);
+  // The event of pose number `count`, serialized by the first stream that asks for it.
+  std::shared_ptr<const std::string> poseEvent(const SharedPose& pose, uint64_t count);
   // False (and the response filled with 401) when a token is configured and the request does
   // not carry it ("Authorization: Bearer <token>").
   bool authorized(const httplib::Request& request, httplib::Response& response) const;
@@ -78,6 +82,11 @@ class WebView final : public PoseSubscriber {
   uint64_t poses_offered_ = 0;
   bool closing_ = false;
   int stream_clients_ = 0;
+
+  // The newest pose's event, shared by the streams.
+  std::mutex event_mutex_;
+  std::shared_ptr<const std::string> newest_event_;
+  uint64_t event_count_ = 0;
 };
 
 }  // namespace mocap
