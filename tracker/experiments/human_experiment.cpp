@@ -18,7 +18,6 @@
 #include "tracker/experiments/filter_flags.h"
 #include "tracker/experiments/human_scene.h"
 #include "tracker/experiments/human_scoring.h"
-#include "tracker/likelihood/edge_map.h"
 #include "tracker/likelihood/full_body.h"
 #include "tracker/model/kinematics.h"
 #include "tracker/motion/bvh.h"
@@ -60,10 +59,6 @@ void writeOverlays(const std::string& dir, int frame, const std::vector<Silhouet
     const cv::Mat grey = masks[c].toMat() / 2;
     cv::Mat image;
     cv::merge(std::vector<cv::Mat>{grey, grey, grey}, image);
-    if (masks[c].hasEdges())  // the image edges the likelihood sees, in green
-      for (int y = 0; y < image.rows; ++y)
-        for (int x = 0; x < image.cols; ++x)
-          if (masks[c].edgeDistance(y, x) == 0) image.at<cv::Vec3b>(y, x) = {0, 200, 0};
     std::vector<std::vector<cv::Point>> outline;
     cv::findContours(estimated[c], outline, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
     cv::drawContours(image, outline, -1, cv::Scalar(0, 0, 255), 1);
@@ -381,9 +376,6 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
         std::uniform_real_distribution<double>(0, 1)(skip_rng) < config.skip_rate)
       continue;
     renderFrame(config, f, truth[f], missed_limb, renderer, images, masks);
-    if (options.likelihood.edge_weight > 0 && !renderer.cameraImages().empty())
-      for (std::size_t c = 0; c < masks.size(); ++c)
-        masks[c].setEdgeDistance(edgeDistance(renderer.cameraImages()[c], images[c]));
     if (config.reset_every > 0 && f > 0 && f % config.reset_every == 0)
       tracker.filter->reset(truth[f - 1]);
     const auto start = std::chrono::steady_clock::now();

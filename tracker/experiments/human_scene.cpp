@@ -103,10 +103,8 @@ void HumanScene::renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::Mat
   if (extractors_.empty()) throw std::logic_error("HumanScene: no background learned");
   renderLayers(q);
   images.resize(rooms_.size());
-  camera_images_.resize(rooms_.size());
   for (std::size_t c = 0; c < rooms_.size(); ++c) {
     rooms_[c]->render(time_, true, frame_);
-    frame_.image.copyTo(camera_images_[c]);
     if (!extractors_[c]->extract(frame_.image))
       throw std::runtime_error("silhouette extraction: " + extractors_[c]->lastError());
     extractors_[c]->foreground().copyTo(images[c]);

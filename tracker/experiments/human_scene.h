@@ -44,8 +44,6 @@ class HumanScene {
   void learnBackground();
   // Each camera's silhouette (CV_8UC1, 0/255) of the person in pose `q`, at the next frame time.
   void renderSilhouettes(const Eigen::VectorXd& q, std::vector<cv::Mat>& images);
-  // The cameras' images of the last render (extracted silhouettes only; empty otherwise).
-  const std::vector<cv::Mat>& cameraImages() const { return camera_images_; }
   void hideSegment(int camera, int segment);
   void clearHidden();
   // The person's joints at pose `q`, in the model's point order: the model's points, or the
@@ -86,7 +84,6 @@ class HumanScene {
   std::vector<std::unique_ptr<SilhouetteExtractor>> extractors_;
   TestSceneFrame frame_;
   std::vector<cv::Mat> model_masks_;
-  std::vector<cv::Mat> camera_images_;
   struct ExtractionCounts {
     double iou_sum = 0;
     long frames = 0, person = 0, missed = 0, shadow = 0, shadow_taken = 0, room = 0, room_taken = 0;

@@ -182,7 +182,6 @@ void IncrementalBodyEvaluator::addOwnCounts(int k, int slot, long sign, PixelCou
     const PixelCounts& own = footprint_counts_[slotIndex(k, c, slot)];
     to.area += sign * own.area;
     to.outside += sign * own.outside;
-    to.edge += sign * own.edge;
   }
 }
 

@@ -206,16 +206,6 @@ void countBands(const SilhouetteMask& mask, const Footprint& footprint, const Fo
   }
 }
 
-// The footprint's outline charged against the image's edges: each row's two ends.
-long edgeCost(const SilhouetteMask& mask, const Footprint& footprint) {
-  long cost = 0;
-  const RowSpan* span = footprint.spans;
-  for (int y = footprint.y0; y < footprint.y1; ++y, ++span)
-    if (span->x0 < span->x1)
-      cost += mask.edgeDistance(y, span->x0) + mask.edgeDistance(y, span->x1 - 1);
-  return cost;
-}
-
 }  // namespace
 
 PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprint,
@@ -227,7 +217,6 @@ PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprin
   counts.area = area;
   counts.outside = area - silhouette;
   counts.matched = silhouette - already;
-  if (mask.hasEdges()) counts.edge = edgeCost(mask, footprint);
   return counts;
 }
 

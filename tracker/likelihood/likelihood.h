@@ -18,21 +18,16 @@ inline constexpr std::size_t kMaxCameras = 16;
 struct LikelihoodParams {
   double beta = 0.02;         // log-likelihood per pixel
   int points_per_circle = 8;  // outline tessellation used by the tracker
-  // Per pixel of distance from a footprint's row ends to the nearest image edge, in units of
-  // beta (masks without edge distances charge nothing): 0 is the paper's silhouette alone.
-  double edge_weight = 0;
 };
 
 struct PixelCounts {
   long matched = 0;  // silhouette pixels in the footprint not explained before
   long outside = 0;  // footprint pixels off the silhouette
   long area = 0;     // footprint pixels
-  long edge = 0;     // distances of its rows' ends to the nearest image edge, summed
   PixelCounts& operator+=(const PixelCounts& o) {
     matched += o.matched;
     outside += o.outside;
     area += o.area;
-    edge += o.edge;
     return *this;
   }
   friend PixelCounts operator+(PixelCounts a, const PixelCounts& b) { return a += b; }
@@ -52,8 +47,7 @@ PixelCounts recountFootprint(const SilhouetteMask& mask, const Footprint& footpr
                              int explained_count);
 
 inline double logLikelihood(const LikelihoodParams& params, const PixelCounts& counts) {
-  return params.beta * (static_cast<double>(counts.matched) - static_cast<double>(counts.outside) -
-                        params.edge_weight * static_cast<double>(counts.edge));
+  return params.beta * (static_cast<double>(counts.matched) - static_cast<double>(counts.outside));
 }
 
 }  // namespace mocap

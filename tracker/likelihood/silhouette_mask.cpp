@@ -44,13 +44,6 @@ SilhouetteMask::SilhouetteMask(const cv::Mat& binary) {
   }
 }
 
-void SilhouetteMask::setEdgeDistance(const cv::Mat& distance) {
-  if (distance.type() != CV_8UC1 || distance.cols != width_ || distance.rows != height_)
-    throw std::invalid_argument("silhouette mask: the edge distances must be 8-bit, " +
-                                std::to_string(width_) + "x" + std::to_string(height_));
-  edge_distance_ = distance;
-}
-
 long SilhouetteMask::total() const {
   long sum = 0;
   for (int y = 0; y < height_; ++y) sum += count(y, 0, width_);

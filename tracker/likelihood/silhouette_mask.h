@@ -62,19 +62,11 @@ class SilhouetteMask {
   cv::Mat toMat() const;
   cv::Mat toMat(const cv::Rect& roi) const;
 
-  // Optional: each pixel's distance to the nearest image edge of the person (edge_map.h), which
-  // the likelihood charges a footprint's outline with (LikelihoodParams::edge_weight). CV_8UC1 of
-  // the mask's size; throws std::invalid_argument otherwise.
-  void setEdgeDistance(const cv::Mat& distance);
-  bool hasEdges() const { return !edge_distance_.empty(); }
-  int edgeDistance(int y, int x) const { return edge_distance_.ptr<uint8_t>(y)[x]; }
-
  private:
   int width_ = 0;
   int height_ = 0;
   int words_per_row_ = 0;  // width / 64 + 1: column `width` has a word too
   std::vector<Word> words_;
-  cv::Mat edge_distance_;
 };
 
 }  // namespace mocap

@@ -7,7 +7,6 @@
 #include <random>
 
 #include <gtest/gtest.h>
-#include <opencv2/core/mat.hpp>
 
 #include "tests/shared_data.h"
 #include "tests/tracker/filters/filter_test_support.h"
@@ -27,27 +26,17 @@ void expectSameCounts(const PixelCounts& a, const PixelCounts& b, const std::str
   EXPECT_EQ(a.matched, b.matched) << what;
   EXPECT_EQ(a.outside, b.outside) << what;
   EXPECT_EQ(a.area, b.area) << what;
-  EXPECT_EQ(a.edge, b.edge) << what;
 }
 
 using testing_support::silhouettes;
 
 // Random trials from `start` against the silhouettes of `truth`; steps of up to `speeds` speed
 // limits, so footprints move by a few pixels to many. With `threads` > 1 the evaluator runs each
-// camera's part on a pool's workers. With `edges`, the masks carry edge distances (a pattern: any
-// map must give the same sums both ways).
+// camera's part on a pool's workers.
 void checkRandomTrials(const BodyModel& model, const Rig& rig, const Eigen::VectorXd& truth,
                        const Eigen::VectorXd& start, int trials, unsigned seed, double speeds,
-                       int threads = 1, bool edges = false) {
-  auto masks = silhouettes(model, rig, truth);
-  for (SilhouetteMask& mask : masks) {
-    if (!edges) continue;
-    cv::Mat distance(mask.height(), mask.width(), CV_8UC1);
-    for (int y = 0; y < distance.rows; ++y)
-      for (int x = 0; x < distance.cols; ++x)
-        distance.at<uint8_t>(y, x) = static_cast<uint8_t>((3 * x + 5 * y) % 9);
-    mask.setEdgeDistance(distance);
-  }
+                       int threads = 1) {
+  const auto masks = silhouettes(model, rig, truth);
   FullBodyEvaluator full(model, rig, LikelihoodParams().points_per_circle, 1);
   WorkerPool pool(threads);
   IncrementalBodyEvaluator incremental(model, rig, LikelihoodParams().points_per_circle, &pool);
@@ -83,9 +72,6 @@ void checkRandomTrials(const BodyModel& model, const Rig& rig, const Eigen::Vect
     }
   }
   EXPECT_GT(accepted, trials / 4);
-  if (edges) {
-    EXPECT_GT(incremental.counts().edge, 0);
-  }
   IncrementalBodyEvaluator fresh(model, rig, LikelihoodParams().points_per_circle);
   expectSameCounts(fresh.reset(incremental.pose(), masks), incremental.counts(), "final");
 }
@@ -96,13 +82,6 @@ TEST(IncrementalBodyEvaluator, HandTrialsMatchTheFullEvaluation) {
   checkRandomTrials(scene.model, scene.rig, truth, scene.perturbed(truth, 2.0), 400, 1, 1.5);
   // Large steps: footprints jump clear of where they were.
   checkRandomTrials(scene.model, scene.rig, truth, scene.perturbed(truth, 2.0), 200, 2, 8.0);
-}
-
-TEST(IncrementalBodyEvaluator, HandTrialsWithEdgesMatchTheFullEvaluation) {
-  testing_support::HandScene scene;
-  const Eigen::VectorXd truth = generateMotion(scene.model, 1, 9)[0];
-  checkRandomTrials(scene.model, scene.rig, truth, scene.perturbed(truth, 2.0), 300, 6, 1.5, 2,
-                    true);
 }
 
 TEST(IncrementalBodyEvaluator, HandTrialsOnTwoThreadsMatchTheFullEvaluation) {

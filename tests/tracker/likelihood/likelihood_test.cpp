@@ -34,32 +34,6 @@ TEST(Likelihood, CountsMatchedAndOutsidePixels) {
   EXPECT_DOUBLE_EQ(logLikelihood(p, c), 0.5 * (200 - 300));
 }
 
-// The edge term: each footprint row's two ends, charged their distance to an image edge, whatever
-// was explained before; nothing without edge distances.
-TEST(Likelihood, ChargesTheRowsEndsTheirDistanceToAnEdge) {
-  cv::Mat image = cv::Mat::zeros(100, 100, CV_8UC1);
-  image(cv::Rect(10, 10, 40, 40)) = 255;
-  SilhouetteMask mask(image);
-  std::vector<RowSpan> s, e;
-  const Footprint f = rect(20, 31, 20, 30, s);  // ends at columns 20 and 30, 10 rows
-  const Footprint explained = rect(0, 100, 0, 100, e);
-  EXPECT_EQ(countFootprint(mask, f, nullptr, 0).edge, 0);
-  cv::Mat distance(100, 100, CV_8UC1);
-  for (int y = 0; y < 100; ++y)
-    for (int x = 0; x < 100; ++x) distance.at<uint8_t>(y, x) = static_cast<uint8_t>(x % 7);
-  mask.setEdgeDistance(distance);
-  const PixelCounts counts = countFootprint(mask, f, nullptr, 0);
-  EXPECT_EQ(counts.edge, 10 * (20 % 7 + 30 % 7));
-  EXPECT_EQ(countFootprint(mask, f, &explained, 1).edge, counts.edge);
-  EXPECT_EQ(recountFootprint(mask, f, counts, &explained, 1).edge, counts.edge);
-  LikelihoodParams p;
-  p.beta = 0.5;
-  p.edge_weight = 2;
-  EXPECT_DOUBLE_EQ(logLikelihood(p, counts),
-                   0.5 * (static_cast<double>(counts.matched - counts.outside) - 2 * 80));
-  EXPECT_THROW(mask.setEdgeDistance(cv::Mat::zeros(99, 100, CV_8UC1)), std::invalid_argument);
-}
-
 TEST(Likelihood, APixelExplainedOnceIsNotCountedTwice) {
   cv::Mat image = cv::Mat::zeros(100, 100, CV_8UC1);
   image(cv::Rect(0, 0, 100, 100)) = 255;
