@@ -7,6 +7,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "drivers/thread_name.h"
 #include "server/log.h"
 #include "server/recording_control.h"
 #include "server/stats.h"
@@ -160,8 +161,10 @@ bool BodyFitJob::collect(Collection& collection, const std::vector<SilhouetteMas
   if (static_cast<int>(collection.frames.size()) >= collection.frame_sets) {
     // The fit before this one ended its request before this could be made: it is finishing.
     if (fit_thread_.joinable()) fit_thread_.join();
-    fit_thread_ = std::thread(
-        [this, collected = std::move(collection)]() mutable { run(std::move(collected)); });
+    fit_thread_ = std::thread([this, collected = std::move(collection)]() mutable {
+      nameThisThread("mocapd-fit");
+      run(std::move(collected));
+    });
     return true;
   }
   if (now - collection.last_progress_ns < kFitStallNs) return false;

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "drivers/fake/replay_pump.h"
+#include "drivers/thread_name.h"
 #include "server/log.h"
 
 namespace mocap {
@@ -184,11 +185,23 @@ Status Pipeline::start() {
   if (running_.exchange(true)) return Status::Error("the pipeline is already running");
   backgrounds_.open();
   body_fit_.open();
-  mask_thread_ = std::thread([this] { maskLoop(); });
-  tracker_thread_ = std::thread([this] { trackerLoop(); });
-  publisher_thread_ = std::thread([this] { publisherLoop(); });
+  mask_thread_ = std::thread([this] {
+    nameThisThread("mocapd-mask");
+    maskLoop();
+  });
+  tracker_thread_ = std::thread([this] {
+    nameThisThread("mocapd-track");
+    trackerLoop();
+  });
+  publisher_thread_ = std::thread([this] {
+    nameThisThread("mocapd-publish");
+    publisherLoop();
+  });
   if (replay_) {
-    replay_thread_ = std::thread([this] { replayLoop(); });
+    replay_thread_ = std::thread([this] {
+      nameThisThread("mocapd-replay");
+      replayLoop();
+    });
     return Status::Ok();
   }
   for (std::size_t c = 0; c < cameras_.size(); ++c) {

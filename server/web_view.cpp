@@ -3,7 +3,6 @@
 
 #include <httplib.h>
 
-#include <pthread.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -14,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "drivers/thread_name.h"
 #include "server/log.h"
 #include "server/web_json.h"
 #include "web/web_index_html.h"
@@ -65,7 +65,7 @@ std::string readFile(const std::string& path) {
 // CPU from the tracker's) and lowers its priority to kViewNiceness. Best effort: a failure leaves
 // the thread as it was.
 void becomeViewThread() {
-  pthread_setname_np(pthread_self(), kThreadName);
+  nameThisThread(kThreadName);
   setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kViewNiceness);
 }
 

@@ -16,6 +16,7 @@
 #include "drivers/aravis/aravis_convert.h"
 #include "drivers/aravis/aravis_device.h"
 #include "drivers/aravis/aravis_glib.h"
+#include "drivers/thread_name.h"
 
 namespace mocap {
 
@@ -397,7 +398,10 @@ Status AravisCamera::start(FrameSink frames, DriverEventSink events) {
   events_ = std::move(events);
   last_frame_id_.reset();
   stopping_ = false;
-  thread_ = std::thread([this] { captureLoop(); });
+  thread_ = std::thread([this] {
+    nameThisThread("mocapd-camera");
+    captureLoop();
+  });
   return Status::Ok();
 }
 

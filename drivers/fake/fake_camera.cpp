@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "drivers/clock.h"
+#include "drivers/thread_name.h"
 
 namespace mocap {
 
@@ -16,7 +17,10 @@ Status FakeCameraBase::start(FrameSink frames, DriverEventSink events) {
   frames_ = std::move(frames);
   events_ = std::move(events);
   stopping_ = false;
-  thread_ = std::thread([this] { run(); });
+  thread_ = std::thread([this] {
+    nameThisThread("mocapd-camera");
+    run();
+  });
   return Status::Ok();
 }
 

@@ -23,6 +23,7 @@
 
 #include "drivers/libcamera/libcamera_device.h"
 #include "drivers/libcamera/libcamera_settings.h"
+#include "drivers/thread_name.h"
 
 namespace mocap {
 
@@ -321,7 +322,10 @@ Status LibcameraCamera::start(FrameSink frames, DriverEventSink events) {
   events_ = std::move(events);
   last_sensor_sequence_.reset();
   stopping_ = false;
-  thread_ = std::thread([this] { workerLoop(); });
+  thread_ = std::thread([this] {
+    nameThisThread("mocapd-camera");
+    workerLoop();
+  });
   return Status::Ok();
 }
 

@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <span>
 
+#include "drivers/thread_name.h"
+
 namespace mocap {
 namespace {
 
@@ -176,7 +178,10 @@ Status V4l2Camera::start(FrameSink frames, DriverEventSink events) {
   events_ = std::move(events);
   last_device_sequence_.reset();
   stopping_ = false;
-  thread_ = std::thread([this] { captureLoop(); });
+  thread_ = std::thread([this] {
+    nameThisThread("mocapd-camera");
+    captureLoop();
+  });
   return Status::Ok();
 }
 

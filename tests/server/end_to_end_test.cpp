@@ -6,9 +6,11 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -97,6 +99,26 @@ TEST_F(EndToEndTest, SubscribersKeepUpWhileOneNeverReads) {
   stalled_context.TryCancel();
   server->shutdown();
   EXPECT_TRUE(cpp_client.finish().ok());
+}
+
+// The names of this process's threads, as `top -H` shows them.
+std::multiset<std::string> threadNames() {
+  std::multiset<std::string> names;
+  for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(task.path() / "comm");
+    std::string name;
+    if (std::getline(comm, name)) names.insert(name);
+  }
+  return names;
+}
+
+TEST_F(EndToEndTest, TheDaemonsThreadsAreNamed) {
+  std::unique_ptr<MocapServer> server = startServer(test::sceneConfig());
+  ASSERT_TRUE(server);
+  const std::multiset<std::string> names = threadNames();
+  EXPECT_EQ(names.count("mocapd-camera"), 2u);
+  for (const char* stage : {"mocapd-mask", "mocapd-track", "mocapd-publish"})
+    EXPECT_EQ(names.count(stage), 1u) << stage;
 }
 
 TEST_F(EndToEndTest, SkeletonDescribesEveryDofAndPoint) {
