@@ -3,9 +3,6 @@
 
 #include <httplib.h>
 
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <charconv>
 #include <fstream>
 #include <future>
@@ -31,10 +28,6 @@ constexpr const char* kThreeDirectory = "/usr/share/javascript/three/";
 constexpr std::size_t kServerThreads = 24;
 constexpr int kMaxStreams = 16;
 constexpr const char* kThreadName = "mocapd-web";
-// The view's threads run at this niceness (the pipeline's at 0): on a busy machine the tracker
-// wins a contended core and the view loses frames, as a slow browser does. At 10 a view thread
-// still gets about a tenth of a contended core, more than one browser needs (docs/web.md).
-constexpr int kViewNiceness = 10;
 // A camera's image is encoded at most this often (5 Hz), however many browsers ask.
 constexpr auto kImageInterval = std::chrono::milliseconds(200);
 // An idle event stream sends a comment this often, which also finds a browser that left.
@@ -61,22 +54,15 @@ std::string readFile(const std::string& path) {
   return text.str();
 }
 
-// Names the calling thread as the view's (so that `top -H` and tests/bench/web_cost.py tell its
-// CPU from the tracker's) and lowers its priority to kViewNiceness. Best effort: a failure leaves
-// the thread as it was.
-void becomeViewThread() {
-  nameThisThread(kThreadName);
-  setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kViewNiceness);
-}
-
-// The server's pool: each thread becomes a view thread when it takes its first connection.
+// The server's pool, its threads named so that `top -H` and tests/bench/web_cost.py tell the web
+// view's CPU from the tracker's: each names itself when it takes its first connection.
 class NamedThreadPool final : public httplib::TaskQueue {
  public:
   explicit NamedThreadPool(std::size_t threads) : pool_(threads) {}
   void enqueue(std::function<void()> task) override {
     pool_.enqueue([task = std::move(task)] {
-      thread_local const bool became = (becomeViewThread(), true);
-      (void)became;
+      thread_local const bool named = (nameThisThread(kThreadName), true);
+      (void)named;
       task();
     });
   }
@@ -224,7 +210,7 @@ Status WebView::start() {
     return Status::Error("web.listen: cannot listen on " + listen + " (address in use or invalid)");
   subscribed_ = publisher_.subscribe(this);
   listener_ = std::thread([this] {
-    becomeViewThread();
+    nameThisThread(kThreadName);
     server_->listen_after_bind();
   });
   return Status::Ok();

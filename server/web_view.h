@@ -8,8 +8,7 @@
 // view is one publisher subscriber holding only the newest pose (latest wins), each event-stream
 // client waits for a newer one on its own server thread (each pose serialized once, by the first
 // stream to send it), and images are encoded on the server's threads from the newest frame set, at
-// most 5 times a second per camera. The server's threads run at a lower priority than the
-// pipeline's.
+// most 5 times a second per camera.
 #pragma once
 
 #include <condition_variable>
