@@ -289,6 +289,9 @@ Status MocapServer::listen() {
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  // gRPC binds with SO_REUSEPORT by default: a second daemon on the same port would start without
+  // an error and take half the clients' connections.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddListeningPort(config.listen, credentials, &port_);
   builder.RegisterService(service_.get());
   server_ = builder.BuildAndStart();

@@ -179,6 +179,12 @@ WebView::WebView(const ServerConfig& config, Pipeline& pipeline, const Rig& rig,
       images_(pipeline.cameras().size(), kImageInterval),
       server_(std::make_unique<httplib::Server>()) {
   server_->new_task_queue = [] { return new NamedThreadPool(kServerThreads); };
+  // cpp-httplib binds with SO_REUSEPORT, so a second daemon's view would share the port without an
+  // error: SO_REUSEADDR alone lets a restart rebind and refuses a port another socket listens on.
+  server_->set_socket_options([](socket_t socket) {
+    int yes = 1;
+    setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   // Short, so idle browser connections give their thread back soon.
   server_->set_keep_alive_timeout(1);
   addRoutes();

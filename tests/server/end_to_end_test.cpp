@@ -121,6 +121,19 @@ TEST_F(EndToEndTest, TheDaemonsThreadsAreNamed) {
     EXPECT_EQ(names.count(stage), 1u) << stage;
 }
 
+// gRPC would let a second daemon share the port (SO_REUSEPORT) and split the clients between the
+// two: it is refused, naming the address.
+TEST_F(EndToEndTest, ASecondDaemonOnTheSamePortIsRefused) {
+  std::unique_ptr<MocapServer> first = startServer(test::sceneConfig());
+  ASSERT_TRUE(first);
+  ServerConfig config = test::sceneConfig();
+  config.listen = "127.0.0.1:" + std::to_string(first->port());
+  const Expected<std::unique_ptr<MocapServer>> second = MocapServer::create(config);
+  ASSERT_FALSE(second.ok());
+  EXPECT_NE(second.error().find("cannot listen on " + config.listen), std::string::npos)
+      << second.error();
+}
+
 TEST_F(EndToEndTest, SkeletonDescribesEveryDofAndPoint) {
   std::unique_ptr<MocapServer> server = startServer(test::sceneConfig());
   ASSERT_TRUE(server);

@@ -286,6 +286,22 @@ TEST_F(WebViewTest, ControlsCallThePipeline) {
   fs::remove_all(root);
 }
 
+// A second daemon cannot take a port a view already listens on (cpp-httplib's own sockets would let
+// it share the port): it runs without its view, with a warning, and the first view answers.
+TEST_F(WebViewTest, ASecondViewOnTheSamePortIsRefused) {
+  start();
+  ServerConfig config = test::sceneConfig();
+  config.web.enabled = true;
+  config.web.listen = "127.0.0.1:" + std::to_string(server_->webPort());
+  Expected<std::unique_ptr<MocapServer>> second = MocapServer::create(config);
+  ASSERT_TRUE(second.ok()) << second.error();
+  ASSERT_TRUE(second.value()->start().ok());
+  EXPECT_EQ(second.value()->webPort(), 0);
+  auto status = client_->Get("/api/status");
+  ASSERT_TRUE(status);
+  EXPECT_EQ(status->status, 200);
+}
+
 TEST_F(WebViewTest, DisabledServesNothing) {
   // A port free now, which the daemon would take if the view were on.
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
