@@ -7,6 +7,7 @@
 #include <fstream>
 #include <future>
 #include <sstream>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -32,6 +33,7 @@ constexpr const char* kThreadName = "mocapd-web";
 constexpr auto kImageInterval = std::chrono::milliseconds(200);
 // An idle event stream sends a comment this often, which also finds a browser that left.
 constexpr auto kStreamKeepAlive = std::chrono::seconds(1);
+constexpr std::string_view kWaiting = ": waiting\n\n";
 // The controls answer when the pipeline has: a background capture of up to 1500 frames, a fit of
 // up to 250 frame sets.
 constexpr auto kControlTimeout = std::chrono::minutes(5);
@@ -372,7 +374,7 @@ void WebView::streamPoses(httplib::Response& response) {
             *last_sent = poses_offered_;
           }
         }
-        if (!pose) return sink.write(": waiting\n\n", 11);
+        if (!pose) return sink.write(kWaiting.data(), kWaiting.size());
         const std::shared_ptr<const std::string> event = poseEvent(pose, *last_sent);
         return sink.write(event->data(), event->size());
       },
