@@ -19,7 +19,7 @@ status every second. It costs the daemon what a page costs, without a browser's 
 competing for the cores. --chromium opens real pages instead (headless Chromium, software WebGL):
 one browser process, one tab per browser.
 Usage: tests/bench/web_cost.py BIN_DIR [--seconds 20] [--runs 3] [--browsers 5] [--chromium]
-                               [--config FILE]
+                               [--config FILE] [--asks poses,images,status] [--latency-only]
 """
 import argparse
 import http.client
@@ -101,11 +101,16 @@ def bench_p99(bin_dir, port, seconds):
 class PageLikeClient:
     """One browser's requests, as server/web/view.js makes them, on its own threads."""
 
-    def __init__(self, port, cameras):
+    def __init__(self, port, cameras, asks=("poses", "images", "status")):
         self.port, self.stopping = port, threading.Event()
-        self.threads = [threading.Thread(target=self.poses, daemon=True),
-                        threading.Thread(target=self.status, daemon=True)]
-        self.threads += [threading.Thread(target=self.images, args=(c,), daemon=True) for c in range(cameras)]
+        self.threads = []
+        if "poses" in asks:
+            self.threads.append(threading.Thread(target=self.poses, daemon=True))
+        if "status" in asks:
+            self.threads.append(threading.Thread(target=self.status, daemon=True))
+        if "images" in asks:
+            self.threads += [threading.Thread(target=self.images, args=(c,), daemon=True)
+                             for c in range(cameras)]
         for thread in self.threads:
             thread.start()
 
@@ -159,7 +164,7 @@ class ChromiumPages:
 def open_browsers(args, port, count, work):
     if args.chromium:
         return ChromiumPages(port, count, work)
-    clients = [PageLikeClient(port, 2) for _ in range(count)]
+    clients = [PageLikeClient(port, 2, args.asks.split(",")) for _ in range(count)]
 
     class Group:
         def stop(self):
@@ -180,15 +185,17 @@ def one_run(args, work, run):
         # Even runs measure without browsers first, odd runs with them first.
         for with_browsers in ([False, True] if run % 2 == 0 else [True, False]):
             if not with_browsers:
-                figures["cpu_percent_none"], figures["web_threads_cpu_percent_none"] = cpu_percent(
-                    daemon.pid, args.seconds)
+                if not args.latency_only:
+                    figures["cpu_percent_none"], figures["web_threads_cpu_percent_none"] = \
+                        cpu_percent(daemon.pid, args.seconds)
                 figures["p99_ms_none"] = bench_p99(args.bin_dir, grpc_port, args.seconds)
                 continue
-            one = open_browsers(args, web_port, 1, work)
-            time.sleep(SETTLE_S)
-            figures["cpu_percent_one_browser"], figures["web_threads_cpu_percent_one_browser"] = \
-                cpu_percent(daemon.pid, args.seconds)
-            one.stop()
+            if not args.latency_only:
+                one = open_browsers(args, web_port, 1, work)
+                time.sleep(SETTLE_S)
+                figures["cpu_percent_one_browser"], figures["web_threads_cpu_percent_one_browser"] = \
+                    cpu_percent(daemon.pid, args.seconds)
+                one.stop()
             many = open_browsers(args, web_port, args.browsers, work)
             time.sleep(SETTLE_S)
             figures["p99_ms_browsers"] = bench_p99(args.bin_dir, grpc_port, args.seconds)
@@ -196,7 +203,8 @@ def one_run(args, work, run):
     finally:
         daemon.terminate()
         daemon.wait()
-    figures["view_cpu_percent"] = figures["cpu_percent_one_browser"] - figures["cpu_percent_none"]
+    if not args.latency_only:
+        figures["view_cpu_percent"] = figures["cpu_percent_one_browser"] - figures["cpu_percent_none"]
     figures["p99_ms_difference"] = figures["p99_ms_browsers"] - figures["p99_ms_none"]
     return figures
 
@@ -208,6 +216,11 @@ def main():
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--browsers", type=int, default=5)
     parser.add_argument("--chromium", action="store_true", help="real headless Chromium pages")
+    parser.add_argument("--latency-only", action="store_true",
+                        help="only the p99 phases: longer --seconds for the same time")
+    parser.add_argument("--asks", default="poses,images,status",
+                        help="what each page-like browser asks for: a part of the page's load, to "
+                             "tell which part costs what")
     parser.add_argument("--config", default=WALK, help="the daemon's configuration (default: the fake walk)")
     args = parser.parse_args()
     runs = []
@@ -218,7 +231,7 @@ def main():
     median = {key: statistics.median(r[key] for r in runs) for key in runs[0]}
     print(json.dumps({"config": os.path.basename(args.config), "seconds": args.seconds,
                       "runs": args.runs, "browsers": args.browsers,
-                      "clients": "chromium" if args.chromium else "page-like",
+                      "clients": "chromium" if args.chromium else "page-like " + args.asks,
                       "cores": os.cpu_count(), "load_average": os.getloadavg(),
                       "median": median, "all_runs": runs}, indent=2))
 
