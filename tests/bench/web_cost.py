@@ -101,7 +101,7 @@ def bench_p99(bin_dir, port, seconds):
 class PageLikeClient:
     """One browser's requests, as server/web/view.js makes them, on its own threads."""
 
-    def __init__(self, port, cameras, asks=("poses", "images", "status")):
+    def __init__(self, port, cameras, asks):
         self.port, self.stopping = port, threading.Event()
         self.threads = []
         if "poses" in asks:
