@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -168,55 +169,56 @@ TEST_F(WebViewTest, AJpegPerCameraAtHalfTheCameraSize) {
   EXPECT_EQ(missing->status, 404);
 }
 
-TEST_F(WebViewTest, EventStreamDeliversPoses) {
-  start();
+// The next `count` poses of a new event stream from the view on `port`, parsed.
+std::vector<json> readPoseEvents(int port, int count) {
+  httplib::Client client("127.0.0.1", port);
+  client.set_read_timeout(10, 0);
+  std::vector<json> poses;
   std::string received;
-  int events = 0;
-  auto result = client_->Get("/api/poses", [&](const char* data, std::size_t length) {
+  client.Get("/api/poses", [&](const char* data, std::size_t length) {
     received.append(data, length);
     std::size_t end;
     while ((end = received.find("\n\n")) != std::string::npos) {
       const std::string event = received.substr(0, end);
       received.erase(0, end + 2);
-      if (event.rfind("data: ", 0) != 0) continue;
-      const json pose = json::parse(event.substr(6));
-      EXPECT_FALSE(pose["points"].empty());
-      EXPECT_FALSE(pose["lines"].empty());
-      EXPECT_EQ(pose["projected"].size(), 2u);
-      EXPECT_EQ(pose["projected"][0].size(), pose["points"].size());
-      ++events;
+      if (event.rfind("data: ", 0) == 0) poses.push_back(json::parse(event.substr(6)));
     }
-    return events < 5;
+    return static_cast<int>(poses.size()) < count;
   });
-  EXPECT_EQ(events, 5);
+  return poses;
 }
 
-// Each pose is serialized once and shared: two browsers both get whole, parseable poses.
+TEST_F(WebViewTest, EventStreamDeliversPoses) {
+  start();
+  const std::vector<json> poses = readPoseEvents(server_->webPort(), 5);
+  ASSERT_EQ(poses.size(), 5u);
+  for (const json& pose : poses) {
+    EXPECT_FALSE(pose["points"].empty());
+    EXPECT_FALSE(pose["lines"].empty());
+    EXPECT_EQ(pose["projected"].size(), 2u);
+    EXPECT_EQ(pose["projected"][0].size(), pose["points"].size());
+  }
+}
+
+// Each pose is serialized once and shared: two browsers get the same pose for the same frame set.
 TEST_F(WebViewTest, TwoEventStreamsShareEachPose) {
   start();
-  auto stream = [&](int& events) {
-    httplib::Client client("127.0.0.1", server_->webPort());
-    client.set_read_timeout(10, 0);
-    std::string received;
-    client.Get("/api/poses", [&](const char* data, std::size_t length) {
-      received.append(data, length);
-      std::size_t end;
-      while ((end = received.find("\n\n")) != std::string::npos) {
-        const std::string event = received.substr(0, end);
-        received.erase(0, end + 2);
-        if (event.rfind("data: ", 0) != 0) continue;
-        EXPECT_FALSE(json::parse(event.substr(6))["points"].empty());
-        ++events;
-      }
-      return events < 10;
-    });
-  };
-  int first = 0, second = 0;
-  std::thread other([&] { stream(second); });
-  stream(first);
+  std::vector<json> first, second;
+  std::thread other([&] { second = readPoseEvents(server_->webPort(), 25); });
+  first = readPoseEvents(server_->webPort(), 25);
   other.join();
-  EXPECT_EQ(first, 10);
-  EXPECT_EQ(second, 10);
+  ASSERT_EQ(first.size(), 25u);
+  ASSERT_EQ(second.size(), 25u);
+  std::map<uint64_t, std::string> by_frame;
+  for (const json& pose : first) by_frame[pose["frame_sequence"].get<uint64_t>()] = pose.dump();
+  int shared = 0;
+  for (const json& pose : second) {
+    const auto same = by_frame.find(pose["frame_sequence"].get<uint64_t>());
+    if (same == by_frame.end()) continue;
+    EXPECT_EQ(pose.dump(), same->second);
+    ++shared;
+  }
+  EXPECT_GT(shared, 0);  // both streams were open over the same second
 }
 
 TEST_F(WebViewTest, UnknownPathsAndTraversalAreRefused) {
