@@ -200,7 +200,8 @@ TEST_F(WebViewTest, EventStreamDeliversPoses) {
   }
 }
 
-// Each pose is serialized once and shared: two browsers get the same pose for the same frame set.
+// The streams share each pose's serialized event: two browsers open at once get, for every frame set
+// both saw, the same pose (a shared event mixed up between poses would differ).
 TEST_F(WebViewTest, TwoEventStreamsShareEachPose) {
   start();
   std::vector<json> first, second;
