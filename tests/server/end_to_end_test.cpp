@@ -3,6 +3,7 @@
 // reads; the skeleton; the bearer token; TLS; recording paths; background capture while poses
 // flow. The people, body-fit and replay suites are beside it.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -112,10 +113,19 @@ std::multiset<std::string> threadNames() {
   return names;
 }
 
+// Each thread names itself once it runs, which may be after the daemon has started: the names are
+// read again until the last stage's appears (or ten seconds pass).
 TEST_F(EndToEndTest, TheDaemonsThreadsAreNamed) {
   std::unique_ptr<MocapServer> server = startServer(test::sceneConfig());
   ASSERT_TRUE(server);
-  const std::multiset<std::string> names = threadNames();
+  std::multiset<std::string> names = threadNames();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while ((names.count("mocapd-camera") < 2 || names.count("mocapd-mask") == 0 ||
+          names.count("mocapd-track") == 0 || names.count("mocapd-publish") == 0) &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    names = threadNames();
+  }
   EXPECT_EQ(names.count("mocapd-camera"), 2u);
   for (const char* stage : {"mocapd-mask", "mocapd-track", "mocapd-publish"})
     EXPECT_EQ(names.count(stage), 1u) << stage;
