@@ -31,11 +31,9 @@ FactoredFilter::FactoredFilter(const BodyModel& model, const Rig& rig, const Fil
       pool_(pool),
       rng_(options.seed),
       plan_(makeFactoredPlan(model, rig, options)),
-      travel_(model, options.travel_prior),
       max_rows_(plan_.max_rows) {
   if (plan_.refinement.evaluations > 0)
-    refinement_ =
-        std::make_unique<Refinement>(model, rig, options_, plan_.refinement, travel_, pool);
+    refinement_ = std::make_unique<Refinement>(model, rig, options_, plan_.refinement, pool);
   candidates_.resize(plan_.candidates_per_layer);
   candidate_spans_.resize(static_cast<std::size_t>(plan_.candidates_per_layer) * rig.size() *
                           max_rows_);
@@ -59,7 +57,6 @@ void FactoredFilter::reset(const Eigen::VectorXd& q0) {
   // One particle: the first layer spreads the whole budget over it.
   particles_.assign(1, FactoredParticle{q0, 0.0, std::vector<int>(model_.segments.size(), -1)});
   clampToLimits(model_, particles_[0].q);
-  travel_.clear();
 }
 
 FrameEstimate FactoredFilter::step(const std::vector<SilhouetteMask>& masks) {
@@ -260,8 +257,6 @@ void FactoredFilter::evaluate(const FactoredLayer& layer, int i, int same_pose,
   cand.log_weight += logLikelihood(options_.likelihood, counts);
   cand.selection = cand.log_weight;
   if (layer.lookahead) rankByLookahead(layer, i, masks, scratch);
-  // The travel prior ranks the root's candidates; the weight keeps the paper's factor.
-  if (s == 0) cand.selection -= travel_.cost(cand.q);
 }
 
 void FactoredFilter::keepBest(const FactoredLayer& layer, int count) {
@@ -309,7 +304,6 @@ void FactoredFilter::finishFrame(FrameEstimate& estimate) {
   weightedEstimate(qs, lw, estimate);
   // Kept sorted best first; a refined best particle is the estimate.
   if (refinement_) estimate.q = particles_[0].q;
-  travel_.record(estimate.q);
 }
 
 std::unique_ptr<PoseFilter> makeFactoredFilter(const BodyModel& model, const Rig& rig,

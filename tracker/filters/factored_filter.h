@@ -14,7 +14,6 @@
 #include "tracker/filters/factored_plan.h"
 #include "tracker/filters/filter.h"
 #include "tracker/filters/refine/refinement.h"
-#include "tracker/filters/travel_prior.h"
 
 namespace mocap {
 
@@ -83,7 +82,6 @@ class FactoredFilter final : public PoseFilter {
   std::function<bool()> yield_;  // see PoseFilter::setYield
 
   const FactoredPlan plan_;
-  TravelPrior travel_;  // the track's recent estimates (see FilterOptions::travel_prior)
   int max_rows_ = 0;
 
   std::vector<FactoredParticle> particles_, next_particles_;

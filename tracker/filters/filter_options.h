@@ -102,13 +102,6 @@ struct FilterOptions {
   enum class Lookahead { kNone, kBody };
   Lookahead lookahead = Lookahead::kNone;
   RefineOptions refine;      // factored
-  // factored: the weight W of the travel prior (tracker/filters/travel_prior.h), for a model that
-  // names its `forward` axis. Once the root has moved faster than a slow walk over the last 8
-  // frames, each root layer ranks a candidate, and the refinement scores a pose, less
-  // W (1 - cos a) / 2, a the angle between where the root faces and where it went: a body turned
-  // round costs W. Two silhouettes barely tell front from back, and the track of a walking person
-  // turned round explains them as well. 0: off.
-  double travel_prior = 0;
   int annealing_layers = 5;  // annealed: number of annealing layers per frame
   uint64_t seed = 1;
   LikelihoodParams likelihood;

@@ -300,8 +300,8 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   Parser p(source);
   if (!root.IsMap()) p.fail(root, "(top)", "expected a map with 'segments'");
   p.onlyKeys(root, "(top)",
-             {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "forward", "feet",
-              "stances", "fit_pose", "segments"});
+             {"name", "kind", "frame_rate", "gait_dofs", "facing_twists", "feet", "stances",
+              "fit_pose", "segments"});
   BodyModel model;
   model.name = root["name"] ? p.text(root["name"], "name") : "body";
   if (root["kind"]) {
@@ -317,7 +317,6 @@ BodyModel parseBodyModel(const std::string& yaml_text, const std::string& source
   model.gait_dofs = parseDofNames(p, root, "gait_dofs", model, false);
   model.facing_twists = parseDofNames(p, root, "facing_twists", model, true);
   checkFacingTwistAxes(p, root, model);
-  if (root["forward"]) model.forward = p.unitVec3(root["forward"], "forward");
   model.feet = parseFeet(p, root, model);
   parseStances(p, root, model);
   return model;
@@ -388,10 +387,6 @@ std::string formatBodyModel(const BodyModel& model) {
   }
   if (!model.facing_twists.empty()) {
     out << YAML::Key << "facing_twists" << YAML::Value << YAML::Flow << model.facing_twists;
-  }
-  if (!model.forward.isZero()) {
-    out << YAML::Key << "forward" << YAML::Value;
-    emitVec3(out, model.forward);
   }
   if (!model.feet.empty()) out << YAML::Key << "feet" << YAML::Value << YAML::Flow << model.feet;
   if (!model.stances.empty()) {

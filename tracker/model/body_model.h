@@ -84,10 +84,6 @@ class BodyModel {
   // the pelvis faces away from the legs; the tracker's facing prior keeps it small
   // (FilterOptions::refine_facing_prior).
   std::vector<std::string> facing_twists;
-  // Optional (`forward` in the file): the root segment's forward axis in its own frame, unit (the
-  // human's +Y: the way the pelvis faces); zero if the model names none. The tracker's travel
-  // prior turns it towards the way the body moves (FilterOptions::travel_prior).
-  Eigen::Vector3d forward = Eigen::Vector3d::Zero();
   // Optional: segments whose joint stays planted where it is when the tracker's refinement moves
   // the pelvis (the human's r_foot, l_foot): it re-solves the rotations of the two segments above
   // each (hip and knee), other than facing twists (FilterOptions::refine_plant).

@@ -7,23 +7,18 @@
 namespace mocap {
 
 PoseSearch::PoseSearch(const BodyModel& model, const FilterOptions& options,
-                       const FacingPrior& facing, const TravelPrior& travel,
-                       IncrementalBodyEvaluator& evaluator)
-    : model_(model), options_(options), facing_(facing), travel_(travel), evaluator_(evaluator) {}
-
-double PoseSearch::priors(const Eigen::VectorXd& pose) const {
-  return facing_.cost(pose) + travel_.cost(pose);
-}
+                       const FacingPrior& facing, IncrementalBodyEvaluator& evaluator)
+    : model_(model), options_(options), facing_(facing), evaluator_(evaluator) {}
 
 double PoseSearch::start(const Eigen::VectorXd& q, const std::vector<SilhouetteMask>& masks,
                          int budget) {
   budget_ = budget;
-  return logLikelihood(options_.likelihood, evaluator_.reset(q, masks)) - priors(q);
+  return logLikelihood(options_.likelihood, evaluator_.reset(q, masks)) - facing_.cost(q);
 }
 
 double PoseSearch::trialScore(const Eigen::VectorXd& pose) {
   --budget_;
-  return logLikelihood(options_.likelihood, evaluator_.trial(pose)) - priors(pose);
+  return logLikelihood(options_.likelihood, evaluator_.trial(pose)) - facing_.cost(pose);
 }
 
 bool PoseSearch::tryPose(const Eigen::VectorXd& pose, Eigen::VectorXd& at, double& value) {

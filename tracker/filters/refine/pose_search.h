@@ -1,5 +1,5 @@
 // The refinement's trial machinery, shared by its sweep and its moves: a pose is scored on the
-// incremental full-body evaluator (log-likelihood less the priors) as one evaluation of the
+// incremental full-body evaluator (log-likelihood less the facing prior) as one evaluation of the
 // frame's budget, then kept as the evaluator's current pose or dropped.
 #pragma once
 
@@ -11,7 +11,6 @@
 #include "tracker/filters/filter.h"
 #include "tracker/filters/incremental_body.h"
 #include "tracker/filters/refine/facing_prior.h"
-#include "tracker/filters/travel_prior.h"
 
 namespace mocap {
 
@@ -31,7 +30,7 @@ class PoseSearch {
 
   // All borrowed; they must outlive the search.
   PoseSearch(const BodyModel& model, const FilterOptions& options, const FacingPrior& facing,
-             const TravelPrior& travel, IncrementalBodyEvaluator& evaluator);
+             IncrementalBodyEvaluator& evaluator);
 
   // Makes q the evaluator's current pose against `masks`, with `budget` evaluations to spend
   // after it, and returns q's score.
@@ -40,7 +39,7 @@ class PoseSearch {
   IncrementalBodyEvaluator& evaluator() { return evaluator_; }
 
   // The score of `pose`, as the evaluator's trial (to accept or reject), counted as one
-  // evaluation of the budget: its log-likelihood less the facing and travel priors.
+  // evaluation of the budget: its log-likelihood less the facing prior.
   double trialScore(const Eigen::VectorXd& pose);
   // Scores `pose` as one evaluation of the budget. If it beats `value`, it becomes the evaluator's
   // current pose, `at` and `value`; otherwise the evaluator goes back to `at`.
@@ -62,10 +61,7 @@ class PoseSearch {
   const BodyModel& model_;
   const FilterOptions& options_;
   const FacingPrior& facing_;
-  const TravelPrior& travel_;
   IncrementalBodyEvaluator& evaluator_;
-  double priors(const Eigen::VectorXd& pose) const;
-
   int budget_ = 0;
   Eigen::VectorXd tried_;      // scratch of stepDof()
   std::vector<double> steps_;  // scratch of searchAndKeep()

@@ -10,13 +10,13 @@
 namespace mocap {
 
 Refinement::Refinement(const BodyModel& model, const Rig& rig, const FilterOptions& options,
-                       const RefinementPlan& plan, const TravelPrior& travel, WorkerPool& pool)
+                       const RefinementPlan& plan, WorkerPool& pool)
     : model_(model),
       rig_(rig),
       options_(options),
       plan_(plan),
       evaluator_(model, rig, options.likelihood.points_per_circle, &pool),
-      search_(model, options, plan.facing, travel, evaluator_),
+      search_(model, options, plan.facing, evaluator_),
       steps_(plan.dofs.size()),
       hold_steps_(plan.dofs.size()),
       chase_(model),

@@ -24,7 +24,7 @@ class Refinement {
  public:
   // All borrowed; they must outlive the refinement.
   Refinement(const BodyModel& model, const Rig& rig, const FilterOptions& options,
-             const RefinementPlan& plan, const TravelPrior& travel, WorkerPool& pool);
+             const RefinementPlan& plan, WorkerPool& pool);
 
   // Refines q (the best particle) against `masks` with the plan's evaluations, drawing from `rng`
   // (the filter's), and adds what it spent to `estimate`. Once `yield` (if set) returns true,
