@@ -272,6 +272,7 @@ int runBench(int argc, char** argv) {
   DaemonFlags flags;
   std::vector<std::string> args = parseDaemonFlags(argc, argv, flags);
   const std::string seconds_text = takeFlag(args, "--seconds");
+  const bool with_latencies = takeSwitch(args, "--latencies");
   noMoreArguments(args);
   const long seconds = seconds_text.empty() ? 10 : positiveNumber("--seconds", seconds_text);
 
@@ -309,6 +310,8 @@ int runBench(int argc, char** argv) {
   reader->Finish();
   std::cerr << "\n";
   if (latencies_ms.empty()) throw std::runtime_error("no pose arrived after the first one");
+  const std::vector<double> in_arrival_order =
+      with_latencies ? latencies_ms : std::vector<double>{};
   std::sort(latencies_ms.begin(), latencies_ms.end());
   std::sort(errors_mm.begin(), errors_mm.end());
   const auto percentile = [](const std::vector<double>& sorted, double p) {
@@ -335,6 +338,7 @@ int runBench(int argc, char** argv) {
         {"mean", sum / static_cast<double>(errors_mm.size())},
         {"share_over_100", static_cast<double>(over_100) / static_cast<double>(errors_mm.size())}};
   }
+  if (with_latencies) summary["latencies_ms"] = in_arrival_order;
   std::cout << summary.dump(2) << "\n";
   return 0;
 }

@@ -28,8 +28,10 @@ inline constexpr const char* kFitBodyUsage =
     "                         the figures as comments at its top; --apply: the daemon also\n"
     "                         tracks with it from then on (until it restarts)";
 inline constexpr const char* kBenchUsage =
-    "bench [--seconds N]      capture-to-pose-on-the-wire latency, sustained pose rate and,\n"
-    "                         from the fake scene, the poses' error against the truth";
+    "bench [--seconds N] [--latencies]\n"
+    "                         capture-to-pose-on-the-wire latency, sustained pose rate and,\n"
+    "                         from the fake scene, the poses' error against the truth;\n"
+    "                         --latencies adds every pose's latency in arrival order";
 
 int runStream(int argc, char** argv);
 int runStatus(int argc, char** argv);

@@ -13,6 +13,11 @@ both:
         with BROWSERS of them
 It reports the medians over the runs and every run's figures.
 
+--interleaved WINDOWS measures latency alone, finer: one daemon, WINDOWS windows of SECONDS in the
+order none, browsers, browsers, none, ..., every pose's latency kept. Each condition's p99 is taken
+over all its poses pooled, and the difference's 95 % interval from resampling whole windows (the
+machine's load drifts window by window, so the windows, not the poses, are the samples).
+
 A browser is, by default, a client that asks what the page asks, at the page's pace (server/web/
 view.js): the pose event stream, each camera's JPEG again 200 ms after the last one arrived, the
 status every second. It costs the daemon what a page costs, without a browser's own rendering
@@ -20,11 +25,13 @@ competing for the cores. --chromium opens real pages instead (headless Chromium,
 one browser process, one tab per browser.
 Usage: tests/bench/web_cost.py BIN_DIR [--seconds 20] [--runs 3] [--browsers 5] [--chromium]
                                [--config FILE] [--asks poses,images,status] [--latency-only]
+                               [--interleaved WINDOWS]
 """
 import argparse
 import http.client
 import json
 import os
+import random
 import socket
 import statistics
 import subprocess
@@ -92,10 +99,20 @@ def cpu_percent(pid, seconds):
             100 * (web_cpu_seconds(pid) - web) / elapsed)
 
 
-def bench_p99(bin_dir, port, seconds):
+def bench(bin_dir, port, seconds, *flags):
     result = subprocess.run([os.path.join(bin_dir, "mocapctl"), "bench", "--seconds", str(seconds),
-                             "--server", f"127.0.0.1:{port}"], capture_output=True, text=True, check=True)
-    return json.loads(result.stdout)["latency_ms"]["p99"]
+                             "--server", f"127.0.0.1:{port}", *flags],
+                            capture_output=True, text=True, check=True)
+    return json.loads(result.stdout)
+
+
+def bench_p99(bin_dir, port, seconds):
+    return bench(bin_dir, port, seconds)["latency_ms"]["p99"]
+
+
+def p99(samples):
+    ordered = sorted(samples)
+    return ordered[round(0.99 * (len(ordered) - 1))]
 
 
 class PageLikeClient:
@@ -162,7 +179,7 @@ class ChromiumPages:
 
 
 def open_browsers(args, port, count, work):
-    if args.chromium:
+    if args.chromium and count > 0:
         return ChromiumPages(port, count, work)
     clients = [PageLikeClient(port, 2, args.asks.split(",")) for _ in range(count)]
 
@@ -174,11 +191,7 @@ def open_browsers(args, port, count, work):
 
 
 def one_run(args, work, run):
-    grpc_port, web_port = free_ports()
-    config = os.path.join(work, "web-cost.yaml")
-    with open(config, "w") as out:
-        out.write(daemon_config(args.config, grpc_port, web_port))
-    daemon = subprocess.Popen([os.path.join(args.bin_dir, "mocapd"), "--config", config])
+    daemon, grpc_port, web_port = start_daemon(args, work)
     figures = {}
     try:
         time.sleep(SETTLE_S)
@@ -209,6 +222,46 @@ def one_run(args, work, run):
     return figures
 
 
+def start_daemon(args, work):
+    grpc_port, web_port = free_ports()
+    config = os.path.join(work, "web-cost.yaml")
+    with open(config, "w") as out:
+        out.write(daemon_config(args.config, grpc_port, web_port))
+    return subprocess.Popen([os.path.join(args.bin_dir, "mocapd"), "--config", config]), grpc_port, web_port
+
+
+def interleaved(args, work):
+    """Windows with and without browsers alternated on one daemon (see the module's doc)."""
+    daemon, grpc_port, web_port = start_daemon(args, work)
+    windows = {"none": [], "browsers": []}
+    try:
+        time.sleep(SETTLE_S)
+        for window in range(args.interleaved):
+            condition = "browsers" if window % 4 in (1, 2) else "none"
+            group = open_browsers(args, web_port, args.browsers if condition == "browsers" else 0, work)
+            time.sleep(SETTLE_S)
+            windows[condition].append(bench(args.bin_dir, grpc_port, args.seconds, "--latencies")["latencies_ms"])
+            group.stop()
+            print(f"window {window} ({condition}): p99 {p99(windows[condition][-1]):.2f} ms", file=sys.stderr)
+    finally:
+        daemon.terminate()
+        daemon.wait()
+
+    def pooled_difference(browsers, none):
+        return p99([x for w in browsers for x in w]) - p99([x for w in none for x in w])
+
+    rng = random.Random(1)
+    resampled = sorted(pooled_difference(rng.choices(windows["browsers"], k=len(windows["browsers"])),
+                                         rng.choices(windows["none"], k=len(windows["none"])))
+                       for _ in range(2000))
+    return {"p99_ms_none": p99([x for w in windows["none"] for x in w]),
+            "p99_ms_browsers": p99([x for w in windows["browsers"] for x in w]),
+            "p99_ms_difference": pooled_difference(windows["browsers"], windows["none"]),
+            "p99_ms_difference_95_interval": [resampled[50], resampled[1949]],
+            "poses": {k: sum(len(w) for w in v) for k, v in windows.items()},
+            "window_p99_ms": {k: [round(p99(w), 2) for w in v] for k, v in windows.items()}}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("bin_dir")
@@ -222,7 +275,17 @@ def main():
                         help="what each page-like browser asks for: a part of the page's load, to "
                              "tell which part costs what")
     parser.add_argument("--config", default=WALK, help="the daemon's configuration (default: the fake walk)")
+    parser.add_argument("--interleaved", type=int, metavar="WINDOWS",
+                        help="latency only: windows with and without browsers alternated on one daemon")
     args = parser.parse_args()
+    if args.interleaved:
+        with tempfile.TemporaryDirectory(prefix="web_cost_") as work:
+            result = interleaved(args, work)
+        print(json.dumps({"config": os.path.basename(args.config), "seconds": args.seconds,
+                          "windows": args.interleaved, "browsers": args.browsers,
+                          "clients": "chromium" if args.chromium else "page-like " + args.asks,
+                          "cores": os.cpu_count(), "load_average": os.getloadavg(), **result}, indent=2))
+        return
     runs = []
     with tempfile.TemporaryDirectory(prefix="web_cost_") as work:
         for run in range(args.runs):

@@ -6,12 +6,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -93,12 +95,13 @@ TEST(MocapdBinaryTest, SigtermEndsStreamsAndExitsZero) {
 }
 
 // The fake scene knows the truth, so the bench reports the poses' error against it besides the
-// latency and the rate.
+// latency and the rate; --latencies adds every pose's latency (for benches that pool windows).
 TEST(MocapdBinaryTest, BenchReportsLatencyRateAndErrorAgainstTheTruth) {
   const int port = freePort();
   const pid_t child = startMocapd(port);
   ASSERT_GT(child, 0);
-  const std::string command = MOCAP_BIN_DIR "/mocapctl bench --seconds 2 --server 127.0.0.1:" +
+  const std::string command = MOCAP_BIN_DIR
+                              "/mocapctl bench --seconds 2 --latencies --server 127.0.0.1:" +
                               std::to_string(port) + " 2>/dev/null";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_TRUE(pipe);
@@ -111,6 +114,12 @@ TEST(MocapdBinaryTest, BenchReportsLatencyRateAndErrorAgainstTheTruth) {
   const nlohmann::json summary = nlohmann::json::parse(output);
   EXPECT_GT(summary["poses"].get<int>(), 0) << output;
   EXPECT_LE(summary["latency_ms"]["p50"].get<double>(), summary["latency_ms"]["p99"].get<double>());
+  const std::vector<double> latencies = summary["latencies_ms"].get<std::vector<double>>();
+  EXPECT_EQ(latencies.size(), summary["poses"].get<std::size_t>());
+  if (!latencies.empty()) {
+    EXPECT_EQ(*std::max_element(latencies.begin(), latencies.end()),
+              summary["latency_ms"]["max"].get<double>());
+  }
   ASSERT_TRUE(summary.contains("reference_error_mm")) << output;
   const nlohmann::json& error = summary["reference_error_mm"];
   EXPECT_GT(error["mean"].get<double>(), 0) << output;
