@@ -19,7 +19,7 @@ inline constexpr const char* kHumanUsage =
     "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
     "       [--subject-scale K] [--tracked-body truth|default|fit|drawn]\n"
     "       [--lost-below FIT [--lost-after N]] [--challenge-every N]\n"
-    "       [--dropout-at F --dropout-frames N] [--silhouette-band PX]\n"
+    "       [--dropout-at F --dropout-frames N]\n"
     "       [--scenario lab|product] [--subject-seed N] [--silhouettes true|extracted]\n"
     "       [--motion-units auto|m|cm|mm|cmu|inch] [--motion-joint-map FILE.yaml]\n"
     "  --scenario product: --tracked-body fit (the subject first stands in the fit pose)\n"

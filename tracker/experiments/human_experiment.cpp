@@ -172,7 +172,7 @@ TrackedBody fitTrackedBody(const HumanExperimentConfig& config, const HumanSubje
       // Frames before the motion's own (negative), so their defects differ from its frames'.
       if (config.noise == "realistic")
         corruptSilhouette(fit_images[c], config.seed, -1 - f, static_cast<int>(c));
-      fit_frames[f].push_back(SilhouetteMask::withBand(fit_images[c], config.silhouette_band));
+      fit_frames[f].emplace_back(fit_images[c]);
     }
   }
   const auto start = std::chrono::steady_clock::now();
@@ -236,7 +236,7 @@ void renderFrame(const HumanExperimentConfig& config, int f, const Eigen::Vector
   for (std::size_t c = 0; c < images.size(); ++c) {
     if (realistic) corruptSilhouette(images[c], config.seed, f, static_cast<int>(c));
     if (out_of_view) images[c].setTo(0);
-    masks[c] = SilhouetteMask::withBand(images[c], config.silhouette_band);
+    masks[c] = SilhouetteMask(images[c]);
   }
 }
 
@@ -464,7 +464,6 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   config.challenge_every = static_cast<int>(args.integer("challenge-every", 0, 0, 1'000'000));
   config.dropout_at = static_cast<int>(args.integer("dropout-at", 0, 0, 1'000'000));
   config.dropout_frames = static_cast<int>(args.integer("dropout-frames", 0, 0, 1'000'000));
-  config.silhouette_band = static_cast<int>(args.integer("silhouette-band", 0, 0, 50));
   config.model_path = args.text("model", "");
   config.trace_path = args.text("trace", "");
   config.overlay_dir = args.text("overlay", "");

@@ -93,8 +93,6 @@ struct HumanExperimentConfig {
   // frame dropout_at (the truth still moves and is still scored).
   int dropout_at = 0;
   int dropout_frames = 0;
-  // The likelihood's tolerance band in pixels (SilhouetteMask::withBand); 0: none.
-  int silhouette_band = 0;
   std::string model_path;           // empty: the built-in human
   std::string trace_path;           // per-frame CSV (error, truth and estimate scores); empty: none
   std::string overlay_dir;  // every 10th frame: truth vs estimate PNGs per camera; empty: none

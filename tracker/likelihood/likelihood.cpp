@@ -215,16 +215,8 @@ PixelCounts countFootprint(const SilhouetteMask& mask, const Footprint& footprin
   long area = 0, silhouette = 0, already = 0;
   countBands<true>(mask, footprint, explained, explained_count, area, silhouette, already);
   counts.area = area;
-  counts.silhouette = silhouette;
   counts.outside = area - silhouette;
   counts.matched = silhouette - already;
-  if (mask.hasReach()) {  // charged only beyond the band
-    long reach = 0;
-    const RowSpan* spans = footprint.spans;
-    for (int y = footprint.y0; y < footprint.y1; ++y, ++spans)
-      if (spans->x0 < spans->x1) reach += mask.reachRow(y).count(spans->x0, spans->x1);
-    counts.outside = area - reach;
-  }
   return counts;
 }
 
@@ -235,7 +227,7 @@ PixelCounts recountFootprint(const SilhouetteMask& mask, const Footprint& footpr
   if (footprint.empty()) return counts;
   long area = 0, silhouette = 0, already = 0;
   countBands<false>(mask, footprint, explained, explained_count, area, silhouette, already);
-  counts.matched = counted.silhouette - already;
+  counts.matched = counted.area - counted.outside - already;
   return counts;
 }
 

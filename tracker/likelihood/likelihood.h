@@ -24,12 +24,10 @@ struct PixelCounts {
   long matched = 0;  // silhouette pixels in the footprint not explained before
   long outside = 0;  // footprint pixels off the silhouette
   long area = 0;     // footprint pixels
-  long silhouette = 0;  // silhouette pixels in the footprint, explained before or not
   PixelCounts& operator+=(const PixelCounts& o) {
     matched += o.matched;
     outside += o.outside;
     area += o.area;
-    silhouette += o.silhouette;
     return *this;
   }
   friend PixelCounts operator+(PixelCounts a, const PixelCounts& b) { return a += b; }

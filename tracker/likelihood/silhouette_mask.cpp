@@ -3,9 +3,6 @@
 
 #include <stdexcept>
 #include <string>
-#include <utility>
-
-#include <opencv2/imgproc.hpp>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -45,18 +42,6 @@ SilhouetteMask::SilhouetteMask(const cv::Mat& binary) {
       row[w].bits <<= 1;
     }
   }
-}
-
-SilhouetteMask SilhouetteMask::withBand(const cv::Mat& binary, int band) {
-  if (band <= 0) return SilhouetteMask(binary);
-  const cv::Mat disk =
-      cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * band + 1, 2 * band + 1));
-  cv::Mat eroded, dilated;
-  cv::erode(binary, eroded, disk);
-  cv::dilate(binary, dilated, disk);
-  SilhouetteMask mask(eroded);
-  mask.reach_words_ = std::move(SilhouetteMask(dilated).words_);
-  return mask;
 }
 
 long SilhouetteMask::total() const {

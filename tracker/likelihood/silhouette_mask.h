@@ -16,10 +16,6 @@ class SilhouetteMask {
   SilhouetteMask() = default;
   // `binary`: CV_8UC1, non-zero = foreground. Throws std::invalid_argument otherwise.
   explicit SilhouetteMask(const cv::Mat& binary);
-  // With a tolerance band of `band` pixels either side of the outline, where the likelihood
-  // neither credits nor charges (a garment's edge, a body unlike the model): count() and row()
-  // read `binary` eroded by the band, reachRow() `binary` dilated by it.
-  static SilhouetteMask withBand(const cv::Mat& binary, int band);
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -60,11 +56,6 @@ class SilhouetteMask {
   Row row(int y) const {
     return Row(words_.data() + static_cast<std::size_t>(y) * words_per_row_, words_per_row_);
   }
-  bool hasReach() const { return !reach_words_.empty(); }
-  // The dilated plane's row (only if hasReach()).
-  Row reachRow(int y) const {
-    return Row(reach_words_.data() + static_cast<std::size_t>(y) * words_per_row_, words_per_row_);
-  }
   // Foreground pixels in the whole mask.
   long total() const;
   // Back to an 8-bit 0/255 image, whole or the part in `roi` (within the mask).
@@ -76,7 +67,6 @@ class SilhouetteMask {
   int height_ = 0;
   int words_per_row_ = 0;  // width / 64 + 1: column `width` has a word too
   std::vector<Word> words_;
-  std::vector<Word> reach_words_;  // empty without a band
 };
 
 }  // namespace mocap
