@@ -27,23 +27,30 @@ constexpr int kMaxJpegWidth = 640;
 // distinguishable from the subject.
 constexpr int kTintWeight = 154;
 
-// `image` as BGR in `bgr` (its buffer reused) with the tint blended in where `mask` is set. Only
-// the silhouette's pixels are touched: the rest of a frame is a copy.
-void tintInto(const cv::Mat& image, const SilhouetteMask* mask, cv::Mat& bgr) {
-  if (image.channels() == 1)
-    cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
-  else
+// `image` shrunk by `shrink` (1, 2, 4, ...) as BGR in `bgr` (buffers reused), with the tint
+// blended in where `mask`, at the image's size, is set in the first row of a pixel's block. It is
+// shrunk first, so only the sent pixels are copied and tinted; only the silhouette's are touched.
+void shrinkAndTint(const cv::Mat& image, int shrink, const SilhouetteMask* mask, cv::Mat& shrunk,
+                   cv::Mat& bgr) {
+  const cv::Size size(image.cols / shrink, image.rows / shrink);
+  if (image.channels() == 1) {
+    if (shrink > 1) cv::resize(image, shrunk, size, 0, 0, cv::INTER_AREA);
+    cv::cvtColor(shrink > 1 ? shrunk : image, bgr, cv::COLOR_GRAY2BGR);
+  } else if (shrink > 1) {
+    cv::resize(image, bgr, size, 0, 0, cv::INTER_AREA);
+  } else {
     image.copyTo(bgr);
-  if (!mask || mask->width() != bgr.cols || mask->height() != bgr.rows) return;
-  constexpr int kBlock = 64;
+  }
+  if (!mask || mask->width() != image.cols || mask->height() != image.rows) return;
+  const int block = std::max(1, 64 / shrink);  // 64 of the mask's pixels
   for (int y = 0; y < bgr.rows; ++y) {
-    const SilhouetteMask::Row row = mask->row(y);
+    const SilhouetteMask::Row row = mask->row(y * shrink);
     unsigned char* pixels = bgr.ptr<unsigned char>(y);
-    for (int x0 = 0; x0 < bgr.cols; x0 += kBlock) {
-      const int x1 = std::min(x0 + kBlock, bgr.cols);
-      if (row.count(x0, x1) == 0) continue;
+    for (int x0 = 0; x0 < bgr.cols; x0 += block) {
+      const int x1 = std::min(x0 + block, bgr.cols);
+      if (row.count(x0 * shrink, x1 * shrink) == 0) continue;
       for (int x = x0; x < x1; ++x) {
-        if (row.count(x, x + 1) == 0) continue;
+        if (row.count(x * shrink, (x + 1) * shrink) == 0) continue;
         for (int c = 0; c < 3; ++c) {
           unsigned char& value = pixels[3 * x + c];
           value = static_cast<unsigned char>(
@@ -104,13 +111,10 @@ std::optional<std::string> CameraImages::jpeg(std::size_t camera) {
     return cached.jpeg;
   }
   if (sequence != cached.set_sequence || cached.jpeg.empty()) {
-    tintInto(image, mask.get(), cached.tinted);
-    double scale = 1;
-    while (cached.tinted.cols * scale > kMaxJpegWidth) scale /= 2;
-    if (scale < 1)
-      cv::resize(cached.tinted, cached.scaled, cv::Size(), scale, scale, cv::INTER_AREA);
-    cv::imencode(".jpg", scale < 1 ? cached.scaled : cached.tinted, cached.bytes,
-                 {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
+    int shrink = 1;
+    while (image.cols / shrink > kMaxJpegWidth) shrink *= 2;
+    shrinkAndTint(image, shrink, mask.get(), cached.scaled, cached.tinted);
+    cv::imencode(".jpg", cached.tinted, cached.bytes, {cv::IMWRITE_JPEG_QUALITY, kJpegQuality});
     cached.jpeg.assign(cached.bytes.begin(), cached.bytes.end());
     cached.set_sequence = sequence;
   }

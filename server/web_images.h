@@ -40,8 +40,8 @@ class CameraImages {
  private:
   struct Cached {
     std::mutex mutex;
-    cv::Mat tinted;                    // reused: a new 1.4 MB buffer per image costs page faults
-    cv::Mat scaled;                    // likewise
+    cv::Mat scaled;                    // reused: a new buffer per image costs page faults
+    cv::Mat tinted;                    // likewise
     std::vector<unsigned char> bytes;  // likewise
     std::string jpeg;
     uint64_t set_sequence = 0;

@@ -149,7 +149,14 @@ TEST_F(WebViewTest, StatusAndScene) {
   EXPECT_EQ(cameras[0]["corner_rays"].size(), 4u);
 }
 
-// Halved: the scene's 780x580 cameras are wider than the 640 pixels an image is sent at most.
+// The silhouette's green tint (CameraImages::kTintBgr over the image): at least 51 greener than
+// red or blue, less some JPEG error.
+bool isSilhouette(const cv::Vec3b& bgr) {
+  return bgr[1] > 60 && bgr[1] - std::max(bgr[0], bgr[2]) > 40;
+}
+
+// Halved: the scene's 780x580 cameras are wider than the 640 pixels an image is sent at most; the
+// silhouette is tinted on the subject, not over the whole image.
 TEST_F(WebViewTest, AJpegPerCameraAtHalfTheCameraSize) {
   start();
   for (int camera = 0; camera < 2; ++camera) {
@@ -163,6 +170,11 @@ TEST_F(WebViewTest, AJpegPerCameraAtHalfTheCameraSize) {
     ASSERT_FALSE(decoded.empty());
     EXPECT_EQ(decoded.cols, 390);
     EXPECT_EQ(decoded.rows, 290);
+    std::size_t tinted = 0;
+    for (auto it = decoded.begin<cv::Vec3b>(); it != decoded.end<cv::Vec3b>(); ++it)
+      tinted += isSilhouette(*it);
+    EXPECT_GT(tinted, 100u) << camera;
+    EXPECT_LT(tinted, decoded.total() / 4) << camera;
   }
   auto missing = client_->Get("/api/camera/2.jpg");
   ASSERT_TRUE(missing);
@@ -494,11 +506,6 @@ class HeadlessChromium {
 
 // Pure enough magenta: the outline the page draws over the camera images.
 bool isOutline(const cv::Vec3b& bgr) { return bgr[2] > 170 && bgr[0] > 170 && bgr[1] < 100; }
-// The silhouette's green tint (CameraImages::kTintBgr over the image): at least 51 greener than
-// red or blue, less some JPEG error.
-bool isSilhouette(const cv::Vec3b& bgr) {
-  return bgr[1] > 60 && bgr[1] - std::max(bgr[0], bgr[2]) > 40;
-}
 
 // The page's own state: each camera's canvas shows an image with the outline over it, the 3D view
 // exists and had a pose, the status table has a row per camera.
