@@ -307,7 +307,6 @@ std::string AcquiringFilter::name() const {
 
 AcquiringFilter::Hypothesis AcquiringFilter::newHypothesis(const Eigen::VectorXd& q0) {
   Hypothesis h{make_filter_(), 0};
-  h.filter->setYield(yield_);
   h.filter->reset(q0);
   return h;
 }
@@ -329,8 +328,7 @@ void AcquiringFilter::reacquire() {
 }
 
 void AcquiringFilter::setYield(std::function<bool()> newer_frame_waiting) {
-  yield_ = std::move(newer_frame_waiting);
-  for (Hypothesis& h : hypotheses_) h.filter->setYield(yield_);
+  yield_ = std::move(newer_frame_waiting);  // passed on to the hypotheses at each step
 }
 
 FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
@@ -372,7 +370,12 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   double best = -INFINITY;
   long evaluations = acquisition_evaluations, renders = 0;
   bool cut_short = false;
+  // Live, a step gives way when the next frame set waits; in a trial that would cut the later
+  // hypotheses' searches short and not the first's, so the trial would pick by timing. Competing
+  // hypotheses search in full (the flow limiter drops sets meanwhile); a lone track gives way.
+  const bool trial = hypotheses_.size() > 1;
   for (Hypothesis& h : hypotheses_) {
+    h.filter->setYield(trial ? std::function<bool()>() : yield_);
     FrameEstimate e = h.filter->step(masks);
     const PixelCounts counts = scorer_.evaluate(e.q, masks, 0);
     h.score += logLikelihood(likelihood_, counts);

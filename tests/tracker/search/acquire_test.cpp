@@ -123,6 +123,26 @@ TEST(Acquire, TheAcquiringFilterTracksTheBodyFromWhereItFoundIt) {
   EXPECT_LT(meanError(e.q), 0.05);     // within 50 mm on average over the joints
 }
 
+// Live, a newer frame set waiting cuts a step's refinement short. During a trial that would cut
+// the later hypotheses' searches and not the first's, so the hypotheses search in full while they
+// compete; the lone track left after the trial gives way.
+TEST(Acquire, HypothesesOnTrialAreNotCutShortALoneTrackIs) {
+  StrideScene scene(4);
+  const auto masks = silhouettes(scene.model, scene.rig, scene.truth);
+  WorkerPool pool(1);
+  FilterOptions options = humanFilterDefaults();
+  options.evaluations_per_frame = 600;
+  AcquiringFilter filter(
+      scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
+      [&] { return makeFilter("factored", scene.model, scene.rig, options, pool); });
+  filter.setYield([] { return true; });  // a newer set is always waiting
+  FrameEstimate e = filter.step(masks);
+  ASSERT_TRUE(e.found) << filter.lastFailure();
+  EXPECT_FALSE(e.cut_short);
+  for (int f = 1; f < 10; ++f) EXPECT_FALSE(filter.step(masks).cut_short) << f;
+  EXPECT_TRUE(filter.step(masks).cut_short);  // the trial's 10 frames are over
+}
+
 TEST(Acquire, TheSilhouetteFitIsNearOneAtTheTruthAndFallsAwayFromIt) {
   StrideScene scene;
   const auto masks = silhouettes(scene.model, scene.rig, scene.truth);
