@@ -46,6 +46,19 @@ struct StrideScene {
 
 double headingError(double a, double b) { return std::abs(std::remainder(a - b, 2 * M_PI)); }
 
+// The stride scene in 4 cameras and an acquiring filter over the factored filter with the
+// defaults for people at `evaluations` a frame.
+struct AcquiringStride {
+  explicit AcquiringStride(int evaluations) { options.evaluations_per_frame = evaluations; }
+  StrideScene scene{4};
+  std::vector<SilhouetteMask> masks = silhouettes(scene.model, scene.rig, scene.truth);
+  WorkerPool pool{1};
+  FilterOptions options = humanFilterDefaults();
+  AcquiringFilter filter{
+      scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
+      [this] { return makeFilter("factored", scene.model, scene.rig, options, pool); }};
+};
+
 TEST(Acquire, PlacesTheBodyWhereItsSilhouettesMeetFacingEachWayItMight) {
   StrideScene scene;
   const auto masks = silhouettes(scene.model, scene.rig, scene.truth);
@@ -94,14 +107,10 @@ TEST(Acquire, AStrideIsFoundInTheModelsStrideStanceFacingItsWay) {
 // Four cameras: from two, a static stride cannot tell which leg is forward (the filter settles on
 // the mirrored stride, 100-140 mm off, from the true position and heading too).
 TEST(Acquire, TheAcquiringFilterTracksTheBodyFromWhereItFoundIt) {
-  StrideScene scene(4);
-  const auto masks = silhouettes(scene.model, scene.rig, scene.truth);
-  WorkerPool pool(1);
-  FilterOptions options = humanFilterDefaults();
-  options.evaluations_per_frame = 2000;
-  AcquiringFilter filter(
-      scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
-      [&] { return makeFilter("factored", scene.model, scene.rig, options, pool); });
+  AcquiringStride stride(2000);
+  const StrideScene& scene = stride.scene;
+  AcquiringFilter& filter = stride.filter;
+  const auto& masks = stride.masks;
   KinematicsData estimated(scene.model), truth(scene.model);
   forwardKinematics(scene.model, truth, scene.truth);
   const auto true_points = pointPositions(scene.model, truth);
@@ -127,14 +136,9 @@ TEST(Acquire, TheAcquiringFilterTracksTheBodyFromWhereItFoundIt) {
 // the later hypotheses' searches and not the first's, so the hypotheses search in full while they
 // compete; the lone track left after the trial gives way.
 TEST(Acquire, HypothesesOnTrialAreNotCutShortALoneTrackIs) {
-  StrideScene scene(4);
-  const auto masks = silhouettes(scene.model, scene.rig, scene.truth);
-  WorkerPool pool(1);
-  FilterOptions options = humanFilterDefaults();
-  options.evaluations_per_frame = 600;
-  AcquiringFilter filter(
-      scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
-      [&] { return makeFilter("factored", scene.model, scene.rig, options, pool); });
+  AcquiringStride stride(600);
+  AcquiringFilter& filter = stride.filter;
+  const auto& masks = stride.masks;
   filter.setYield([] { return true; });  // a newer set is always waiting
   FrameEstimate e = filter.step(masks);
   ASSERT_TRUE(e.found) << filter.lastFailure();
