@@ -114,21 +114,23 @@ std::multiset<std::string> threadNames() {
 }
 
 // Each thread names itself once it runs, which may be after the daemon has started: the names are
-// read again until the last stage's appears (or ten seconds pass).
+// read again until every expected name is there (or ten seconds pass).
 TEST_F(EndToEndTest, TheDaemonsThreadsAreNamed) {
   std::unique_ptr<MocapServer> server = startServer(test::sceneConfig());
   ASSERT_TRUE(server);
+  const std::map<std::string, std::size_t> expected = {
+      {"mocapd-camera", 2}, {"mocapd-mask", 1}, {"mocapd-track", 1}, {"mocapd-publish", 1}};
   std::multiset<std::string> names = threadNames();
+  const auto all_named = [&] {
+    return std::all_of(expected.begin(), expected.end(),
+                       [&](const auto& e) { return names.count(e.first) == e.second; });
+  };
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while ((names.count("mocapd-camera") < 2 || names.count("mocapd-mask") == 0 ||
-          names.count("mocapd-track") == 0 || names.count("mocapd-publish") == 0) &&
-         std::chrono::steady_clock::now() < deadline) {
+  while (!all_named() && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     names = threadNames();
   }
-  EXPECT_EQ(names.count("mocapd-camera"), 2u);
-  for (const char* stage : {"mocapd-mask", "mocapd-track", "mocapd-publish"})
-    EXPECT_EQ(names.count(stage), 1u) << stage;
+  for (const auto& [name, count] : expected) EXPECT_EQ(names.count(name), count) << name;
 }
 
 // gRPC would let a second daemon share the port (SO_REUSEPORT) and split the clients between the

@@ -25,8 +25,8 @@
 // After Eigen (through the server's headers): <resolv.h>, which httplib includes, defines `_res`,
 // a name Eigen's templates use.
 #include <arpa/inet.h>
-#include <httplib.h>
 #include <fcntl.h>
+#include <httplib.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
