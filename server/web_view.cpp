@@ -2,6 +2,8 @@
 #include "server/web_view.h"
 
 #include <httplib.h>
+#include <pthread.h>
+#include <sched.h>
 
 #include <charconv>
 #include <fstream>
@@ -56,15 +58,23 @@ std::string readFile(const std::string& path) {
   return text.str();
 }
 
-// The server's pool, its threads named so that `top -H` and tests/bench/web_cost.py tell the web
-// view's CPU from the tracker's: each names itself when it takes its first connection.
+// Every thread of the view names itself, so that `top -H` and tests/bench/web_cost.py tell its CPU
+// from the tracker's, and runs at SCHED_IDLE: it gets only the time the cameras and the tracker
+// leave, so browsers never delay a pose; on a saturated machine the view lags instead.
+void becomeAViewThread() {
+  nameThisThread(kThreadName);
+  const sched_param no_priority{};
+  pthread_setschedparam(pthread_self(), SCHED_IDLE, &no_priority);
+}
+
+// The server's pool: each thread becomes a view thread when it takes its first connection.
 class NamedThreadPool final : public httplib::TaskQueue {
  public:
   explicit NamedThreadPool(std::size_t threads) : pool_(threads) {}
   void enqueue(std::function<void()> task) override {
     pool_.enqueue([task = std::move(task)] {
-      thread_local const bool named = (nameThisThread(kThreadName), true);
-      (void)named;
+      thread_local const bool ready = (becomeAViewThread(), true);
+      (void)ready;
       task();
     });
   }
@@ -218,7 +228,7 @@ Status WebView::start() {
     return Status::Error("web.listen: cannot listen on " + listen + " (address in use or invalid)");
   subscribed_ = publisher_.subscribe(this);
   listener_ = std::thread([this] {
-    nameThisThread(kThreadName);
+    becomeAViewThread();
     server_->listen_after_bind();
   });
   return Status::Ok();

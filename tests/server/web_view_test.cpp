@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <optional>
@@ -29,6 +30,7 @@
 #include <httplib.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sched.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -157,6 +159,33 @@ bool isSilhouette(const cv::Vec3b& bgr) {
 
 // Halved: the scene's 780x580 cameras are wider than the 640 pixels an image is sent at most; the
 // silhouette is tinted on the subject, not over the whole image.
+// Each thread's name and scheduling policy, as `top -H` and `chrt -p` show them.
+std::multimap<std::string, int> threadPolicies() {
+  std::multimap<std::string, int> policies;
+  for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(task.path() / "comm");
+    std::string name;
+    if (std::getline(comm, name))
+      policies.emplace(name, sched_getscheduler(std::stoi(task.path().filename().string())));
+  }
+  return policies;
+}
+
+// The view's threads take only the time the pipeline leaves; the pipeline's keep their policy.
+TEST_F(WebViewTest, TheViewsThreadsYieldToThePipeline) {
+  start();
+  ASSERT_TRUE(client_->Get("/api/status"));
+  const std::multimap<std::string, int> policies = threadPolicies();
+  EXPECT_GE(policies.count("mocapd-web"), 2u) << "the listener and the thread that answered";
+  for (const auto& [name, policy] : policies) {
+    if (name == "mocapd-web") {
+      EXPECT_EQ(policy, SCHED_IDLE);
+    } else if (name == "mocapd-track" || name == "mocapd-camera") {
+      EXPECT_EQ(policy, SCHED_OTHER) << name;
+    }
+  }
+}
+
 TEST_F(WebViewTest, AJpegPerCameraAtHalfTheCameraSize) {
   start();
   for (int camera = 0; camera < 2; ++camera) {
