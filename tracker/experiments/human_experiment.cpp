@@ -177,7 +177,10 @@ TrackedBody fitTrackedBody(const HumanExperimentConfig& config, const HumanSubje
   }
   const auto start = std::chrono::steady_clock::now();
   std::string why_not;
-  std::optional<BodyFit> fit = fitBodyInPose(unfitted, rig, fit_frames, likelihood, {}, &why_not);
+  BodyFitOptions fit_options;
+  fit_options.proportion_rounds = config.fit_rounds;
+  std::optional<BodyFit> fit =
+      fitBodyInPose(unfitted, rig, fit_frames, likelihood, fit_options, &why_not);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!fit) throw std::runtime_error("--tracked-body fit: no subject found: " + why_not);
@@ -289,6 +292,7 @@ void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubj
   if (config.subject_scale != 1) out["subject_scale"] = config.subject_scale;
   if (config.tracked_body != "truth") {
     out["tracked_body"] = config.tracked_body;
+    out["fit_rounds"] = config.fit_rounds;
     out["body_floor_mm"] = score.meanBodyFloorMm();
   }
   if (tracked.fit) {
@@ -458,6 +462,7 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   config.speed_scale = args.real("speed-scale", 1.0, 0.01, 100.0);
   config.subject_scale = args.real("subject-scale", 1.0, 0.5, 2.0);
   config.tracked_body = args.text("tracked-body", config.tracked_body);
+  config.fit_rounds = static_cast<int>(args.integer("fit-rounds", config.fit_rounds, 0, 10));
   config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
   if (args.has("lost-below")) config.lost_below = args.real("lost-below", 0.0, 0.0, 0.99);
   config.lost_after = static_cast<int>(args.integer("lost-after", config.lost_after, 1, 1'000'000));
