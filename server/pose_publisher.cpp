@@ -9,6 +9,7 @@ bool PosePublisher::subscribe(PoseSubscriber* subscriber) {
   std::lock_guard lock(mutex_);
   if (closed_) return false;
   subscribers_.push_back(subscriber);
+  subscriber_count_ = subscribers_.size();
   return true;
 }
 
@@ -16,6 +17,7 @@ void PosePublisher::unsubscribe(PoseSubscriber* subscriber) {
   std::lock_guard lock(mutex_);
   subscribers_.erase(std::remove(subscribers_.begin(), subscribers_.end(), subscriber),
                      subscribers_.end());
+  subscriber_count_ = subscribers_.size();
 }
 
 void PosePublisher::publish(const SharedPose& pose) {
@@ -28,11 +30,6 @@ void PosePublisher::close() {
   if (closed_) return;
   closed_ = true;
   for (PoseSubscriber* subscriber : subscribers_) subscriber->finish();
-}
-
-std::size_t PosePublisher::subscriberCount() const {
-  std::lock_guard lock(mutex_);
-  return subscribers_.size();
 }
 
 }  // namespace mocap

@@ -3,6 +3,7 @@
 // tracker or the others.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <mutex>
 #include <vector>
@@ -31,11 +32,13 @@ class PosePublisher {
   void publish(const SharedPose& pose);
   // Ends every subscription and refuses new ones.
   void close();
-  std::size_t subscriberCount() const;
+  // Lock-free: the web view's idle-priority threads read it (server/web_view.cpp).
+  std::size_t subscriberCount() const { return subscriber_count_.load(std::memory_order_relaxed); }
 
  private:
-  mutable std::mutex mutex_;
+  std::mutex mutex_;
   std::vector<PoseSubscriber*> subscribers_;
+  std::atomic<std::size_t> subscriber_count_{0};
   bool closed_ = false;
 };
 

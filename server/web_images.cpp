@@ -71,8 +71,10 @@ CameraImages::CameraImages(std::size_t cameras, std::chrono::milliseconds min_in
 void CameraImages::keep(const FrameSet& set, const std::vector<SilhouetteMask>& masks) {
   if (steadyNowNs() > wanted_until_ns_.load(std::memory_order_relaxed)) return;
   const auto now = std::chrono::steady_clock::now();
-  std::lock_guard lock(mutex_);
-  if (now - kept_ < min_interval_ / 2) return;
+  // The mask thread never waits for the view: a view thread holding the lock (preempted at idle
+  // priority) costs this set's images, not the pipeline's time.
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock || now - kept_ < min_interval_ / 2) return;
   kept_ = now;
   set_sequence_ = set.sequence;
   for (std::size_t c = 0; c < images_.size(); ++c) {

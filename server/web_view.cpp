@@ -60,7 +60,11 @@ std::string readFile(const std::string& path) {
 
 // Every thread of the view names itself, so that `top -H` and tests/bench/web_cost.py tell its CPU
 // from the tracker's, and runs at SCHED_IDLE: it gets only the time the cameras and the tracker
-// leave, so browsers never delay a pose; on a saturated machine the view lags instead.
+// leave, so browsers never delay a pose; on a saturated machine the view lags instead. A thread
+// preempted at idle priority while holding a lock would hold up whoever waits for it, so the
+// pipeline's hot paths never wait for a lock the view takes (WebView::offer, CameraImages::keep,
+// PosePublisher::subscriberCount); only a status request or a control, a few a second at most,
+// reads the pipeline's own state under its locks.
 void becomeAViewThread() {
   nameThisThread(kThreadName);
   const sched_param no_priority{};
@@ -248,9 +252,12 @@ void WebView::stop() {
   }
 }
 
+// On the publisher's thread, which never waits for the view: if a view thread holds the slot
+// (it may be preempted there, at idle priority), this pose is not offered; the next one is.
 void WebView::offer(const SharedPose& pose) {
   {
-    std::lock_guard lock(pose_mutex_);
+    std::unique_lock lock(pose_mutex_, std::try_to_lock);
+    if (!lock) return;
     newest_pose_ = pose;
     ++poses_offered_;
   }
