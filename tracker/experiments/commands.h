@@ -17,7 +17,7 @@ inline constexpr const char* kHumanUsage =
     "       [--start-offset none|arm60|body30cm|acquire] [--start-frame N]\n"
     "       [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
     "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
-    "       [--subject-scale K] [--tracked-body truth|default|fit|drawn] [--fit-rounds N] [--fit-feet-on-floor 0|1]\n"
+    "       [--subject-scale K] [--tracked-body truth|default|fit|drawn] [--fit-rounds N]\n"
     "       [--lost-below FIT [--lost-after N]] [--challenge-every N]\n"
     "       [--dropout-at F --dropout-frames N]\n"
     "       [--scenario lab|product] [--subject-seed N] [--silhouettes true|extracted]\n"

@@ -179,7 +179,6 @@ TrackedBody fitTrackedBody(const HumanExperimentConfig& config, const HumanSubje
   std::string why_not;
   BodyFitOptions fit_options;
   fit_options.proportion_rounds = config.fit_rounds;
-  fit_options.feet_on_floor = config.fit_feet_on_floor;
   std::optional<BodyFit> fit =
       fitBodyInPose(unfitted, rig, fit_frames, likelihood, fit_options, &why_not);
   const double seconds =
@@ -294,36 +293,12 @@ void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubj
   if (config.tracked_body != "truth") {
     out["tracked_body"] = config.tracked_body;
     out["fit_rounds"] = config.fit_rounds;
-    out["fit_feet_on_floor"] = config.fit_feet_on_floor;
     out["body_floor_mm"] = score.meanBodyFloorMm();
   }
   if (tracked.fit) {
     out["body_scale"] = tracked.fit->scale;
     describeProportions(tracked.fit->proportions, "body_proportions", out);
     out["body_fit_evaluations"] = tracked.fit->evaluations;
-    // Where the fitted body's feet are in the fit frames: the lowest ankle or toe point's height
-    // (the subject stands on the floor, its ankle joints some 7 cm above it).
-    {
-      KinematicsData kinematics(tracked.body);
-      std::vector<double> lowest;
-      for (const Eigen::VectorXd& q : tracked.fit->poses) {
-        forwardKinematics(tracked.body, kinematics, q);
-        const std::vector<Eigen::Vector3d> points = pointPositions(tracked.body, kinematics);
-        double z = 1e9;
-        for (const char* name : {"l_ankle", "r_ankle", "l_toe", "r_toe"})
-          z = std::min(z, points[tracked.body.pointIndex(name)].z());
-        lowest.push_back(1000 * z);
-      }
-      std::sort(lowest.begin(), lowest.end());
-      out["body_fit_lowest_foot_mm"] = lowest;
-      KinematicsData rest(subject.unfitted);
-      forwardKinematics(subject.unfitted, rest, subject.unfitted.neutralPose());
-      const std::vector<Eigen::Vector3d> points = pointPositions(subject.unfitted, rest);
-      double z = 1e9;
-      for (const char* name : {"l_ankle", "r_ankle", "l_toe", "r_toe"})
-        z = std::min(z, points[subject.unfitted.pointIndex(name)].z());
-      out["unfitted_lowest_foot_mm"] = 1000 * z;
-    }
     out["body_fit_seconds"] = tracked.fit_seconds;
   }
   if (config.reportsProductPath()) {
@@ -488,7 +463,6 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   config.subject_scale = args.real("subject-scale", 1.0, 0.5, 2.0);
   config.tracked_body = args.text("tracked-body", config.tracked_body);
   config.fit_rounds = static_cast<int>(args.integer("fit-rounds", config.fit_rounds, 0, 10));
-  config.fit_feet_on_floor = args.integer("fit-feet-on-floor", 0, 0, 1) == 1;
   config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
   if (args.has("lost-below")) config.lost_below = args.real("lost-below", 0.0, 0.0, 0.99);
   config.lost_after = static_cast<int>(args.integer("lost-after", config.lost_after, 1, 1'000'000));

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <stdexcept>
 
 #include "tracker/likelihood/full_body.h"
@@ -95,22 +94,13 @@ class BuildScorer {
   BuildScorer(const BodyModel& model, const Rig& rig,
               const std::vector<std::vector<SilhouetteMask>>& frames,
               std::vector<Eigen::VectorXd> poses, const LikelihoodParams& likelihood,
-              const BodyFitOptions& options)
+              int search_evaluations, std::function<bool()> should_stop)
       : rig_(rig),
         frames_(frames),
         poses_(std::move(poses)),
         likelihood_(likelihood),
-        search_evaluations_(options.search_evaluations),
-        should_stop_(options.should_stop) {
-    if (options.feet_on_floor) {
-      for (int d : model.segments.front().dofs)
-        if (model.dofs[d].type == DofType::kTranslation &&
-            model.dofs[d].axis.isApprox(Eigen::Vector3d::UnitZ()))
-          root_height_dof_ = d;
-      for (const char* name : {"l_ankle", "r_ankle", "l_toe", "r_toe"})
-        if (model.pointIndex(name) >= 0) foot_points_.push_back(model.pointIndex(name));
-      if (foot_points_.empty()) root_height_dof_ = -1;
-    }
+        search_evaluations_(search_evaluations),
+        should_stop_(std::move(should_stop)) {
     // Small steps: the tracked pose is near, and only what the build changes needs to move.
     for (std::size_t d = 0; d < model.dofs.size(); ++d) {
       if (!model.dofs[d].isFree()) continue;
@@ -124,24 +114,16 @@ class BuildScorer {
   // into *refined.
   double score(const BodyModel& body, std::vector<Eigen::VectorXd>* refined) {
     FullBodyEvaluator evaluator(body, rig_, likelihood_.points_per_circle, 1);
-    KinematicsData kinematics(body);
-    const double standing =
-        root_height_dof_ >= 0 ? lowestFoot(body, kinematics, body.neutralPose()) : 0;
     double total = 0;
     refined->assign(poses_.begin(), poses_.end());
     for (std::size_t f = 0; f < frames_.size(); ++f) {
       if (should_stop_ && should_stop_()) throw BodyFitStopped();
       auto value_of = [&](const Eigen::VectorXd& q) {
-        if (root_height_dof_ < 0)
-          return logLikelihood(likelihood_, evaluator.evaluate(q, frames_[f], 0));
-        Eigen::VectorXd on_floor = q;
-        on_floor[root_height_dof_] += standing - lowestFoot(body, kinematics, q);
-        return logLikelihood(likelihood_, evaluator.evaluate(on_floor, frames_[f], 0));
+        return logLikelihood(likelihood_, evaluator.evaluate(q, frames_[f], 0));
       };
       Eigen::VectorXd& q = (*refined)[f];
       double value = value_of(q);
       evaluations_ += 1 + coordinateSearch(body, value_of, search_, search_evaluations_, q, value);
-      if (root_height_dof_ >= 0) q[root_height_dof_] += standing - lowestFoot(body, kinematics, q);
       total += value;
     }
     return total;
@@ -159,18 +141,6 @@ class BuildScorer {
   std::function<bool()> should_stop_;
   SearchDofs search_;
   long evaluations_ = 0;
-  int root_height_dof_ = -1;      // options.feet_on_floor: the root's vertical translation
-  std::vector<int> foot_points_;  // and the points that stand on the floor
-
-  double lowestFoot(const BodyModel& body, KinematicsData& kinematics, const Eigen::VectorXd& q) {
-    forwardKinematics(body, kinematics, q);
-    double lowest = std::numeric_limits<double>::infinity();
-    for (int p : foot_points_) {
-      const BodyPoint& point = body.points[p];
-      lowest = std::min(lowest, (kinematics.world[point.segment] * point.local).z());
-    }
-    return lowest;
-  }
 };
 
 }  // namespace
@@ -193,7 +163,8 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
         "body scale candidates: expected 0 < min_scale <= max_scale and a positive step");
 
   BodyFit fit;
-  BuildScorer scorer(model, rig, frames, poses, likelihood, options);
+  BuildScorer scorer(model, rig, frames, poses, likelihood, options.search_evaluations,
+                     options.should_stop);
   auto uniform = [](double factor) {
     BodyProportions p;
     for (int k = 0; k < BodyProportions::kCount; ++k) p[k] = factor;

@@ -67,10 +67,6 @@ struct BodyFitOptions {
   double min_factor = 0.6, max_factor = 1.4;
   // Per frame and candidate body: the local search of its pose.
   int search_evaluations = 300;
-  // The subject stands on the floor: every searched pose is raised or lowered so its lowest foot
-  // point (ankles, toes) is as high as the candidate body's standing at its neutral pose. Without
-  // it, a body with longer legs can sink its feet below the floor to fit the outline.
-  bool feet_on_floor = false;
   // Asked before each frame set is searched: true ends the fit with BodyFitStopped (a daemon
   // stopping does not wait seconds for it).
   std::function<bool()> should_stop;
