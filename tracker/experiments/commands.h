@@ -16,7 +16,7 @@ inline constexpr const char* kHumanUsage =
     "       [--frames N] [--seed S] [--dofs 31|17] [--noise none|realistic] [--threads N]\n"
     "       [--start-offset none|arm60|body30cm|acquire] [--start-frame N]\n"
     "       [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
-    "       [--reset-every N] [--speed-scale K] [--skip-rate P]\n"
+    "       [--reset-every N [--reset-to truth|nearest]] [--speed-scale K] [--skip-rate P]\n"
     "       [--subject-scale K] [--tracked-body truth|default|fit|drawn] [--fit-rounds N]\n"
     "       [--lost-below FIT [--lost-after N]] [--challenge-every N]\n"
     "       [--dropout-at F --dropout-frames N]\n"

@@ -88,6 +88,9 @@ void validate(const HumanExperimentConfig& config) {
       config.tracked_body != "fit" && config.tracked_body != "drawn")
     throw std::invalid_argument("--tracked-body: expected truth, default, fit or drawn, got '" +
                                 config.tracked_body + "'");
+  if (config.reset_to != "truth" && config.reset_to != "nearest")
+    throw std::invalid_argument("--reset-to: expected truth or nearest, got '" + config.reset_to +
+                                "'");
   if (config.tracked_body == "drawn" && !config.subject_seed)
     throw std::invalid_argument("--tracked-body drawn: needs --subject-seed (the drawn subject)");
 }
@@ -287,6 +290,7 @@ void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubj
                             const HumanScene& renderer, const TrackedBody& tracked,
                             const HumanRunScore& score, nlohmann::json& out) {
   if (config.reset_every > 0) out["reset_every"] = config.reset_every;
+  if (config.reset_every > 0) out["reset_to"] = config.reset_to;
   if (config.start_frame > 0) out["start_frame"] = config.start_frame;
   if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
   if (config.subject_scale != 1) out["subject_scale"] = config.subject_scale;
@@ -381,7 +385,9 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
       continue;
     renderFrame(config, f, truth[f], missed_limb, renderer, images, masks);
     if (config.reset_every > 0 && f > 0 && f % config.reset_every == 0)
-      tracker.filter->reset(truth[f - 1]);
+      tracker.filter->reset(config.reset_to == "nearest" && config.tracked_body != "truth"
+                                ? score.floorPose()
+                                : truth[f - 1]);
     const auto start = std::chrono::steady_clock::now();
     const FrameEstimate estimate = tracker.filter->step(masks);
     tracking_seconds +=
@@ -459,6 +465,7 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   config.start_frame = static_cast<int>(args.integer("start-frame", 0, 0, 1'000'000));
   config.threads = static_cast<int>(args.integer("threads", 0, 0, 256));
   config.reset_every = static_cast<int>(args.integer("reset-every", 0, 0, 1'000'000));
+  config.reset_to = args.text("reset-to", config.reset_to);
   config.speed_scale = args.real("speed-scale", 1.0, 0.01, 100.0);
   config.subject_scale = args.real("subject-scale", 1.0, 0.5, 2.0);
   config.tracked_body = args.text("tracked-body", config.tracked_body);

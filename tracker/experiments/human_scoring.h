@@ -71,6 +71,8 @@ class HumanRunScore {
 
   int scoredFrames() const { return static_cast<int>(frames_.size()); }
   double meanBodyFloorMm() const { return body_floor_mm_ / scoredFrames(); }
+  // The tracked body's pose nearest the last frame's true joints (with `score_floor`).
+  const Eigen::VectorXd& floorPose() const { return floor_pose_; }
   int longestLossFrames() const { return longestLoss(frame_error_); }
   // The first frame (its index in the motion) under 50 mm, of the whole body or of the left arm;
   // empty if none is.
