@@ -164,12 +164,6 @@ const std::vector<FilterOptionKey> kKeys = {
     {"beta", "1e-09-1000", "the likelihood's log-likelihood per silhouette pixel",
      [](FilterOptions& o, const std::string& t) { o.likelihood.beta = realIn(t, 1e-9, 1e3); },
      [](const FilterOptions& o) { return shortestText(o.likelihood.beta); }},
-    {"outside_weight", "0-100",
-     "the likelihood's charge per footprint pixel off the silhouette, against a matched one",
-     [](FilterOptions& o, const std::string& t) {
-       o.likelihood.outside_weight = realIn(t, 0, 100);
-     },
-     [](const FilterOptions& o) { return shortestText(o.likelihood.outside_weight); }},
     {"seed", "0-4611686018427387904", "the filters' random seed: they are deterministic for a seed",
      [](FilterOptions& o, const std::string& t) {
        o.seed = static_cast<uint64_t>(integerIn(t, 0, 1LL << 62));

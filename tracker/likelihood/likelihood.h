@@ -17,7 +17,6 @@ inline constexpr std::size_t kMaxCameras = 16;
 
 struct LikelihoodParams {
   double beta = 0.02;         // log-likelihood per pixel
-  double outside_weight = 1;  // a footprint pixel off the silhouette against one matched
   int points_per_circle = 8;  // outline tessellation used by the tracker
 };
 
@@ -48,8 +47,7 @@ PixelCounts recountFootprint(const SilhouetteMask& mask, const Footprint& footpr
                              int explained_count);
 
 inline double logLikelihood(const LikelihoodParams& params, const PixelCounts& counts) {
-  return params.beta * (static_cast<double>(counts.matched) -
-                        params.outside_weight * static_cast<double>(counts.outside));
+  return params.beta * (static_cast<double>(counts.matched) - static_cast<double>(counts.outside));
 }
 
 }  // namespace mocap
