@@ -157,8 +157,6 @@ bool isSilhouette(const cv::Vec3b& bgr) {
   return bgr[1] > 60 && bgr[1] - std::max(bgr[0], bgr[2]) > 40;
 }
 
-// Halved: the scene's 780x580 cameras are wider than the 640 pixels an image is sent at most; the
-// silhouette is tinted on the subject, not over the whole image.
 // Each thread's name and scheduling policy, as `top -H` and `chrt -p` show them.
 std::multimap<std::string, int> threadPolicies() {
   std::multimap<std::string, int> policies;
@@ -186,6 +184,8 @@ TEST_F(WebViewTest, TheViewsThreadsYieldToThePipeline) {
   }
 }
 
+// Halved: the scene's 780x580 cameras are wider than the 640 pixels an image is sent at most; the
+// silhouette is tinted on the subject, not over the whole image.
 TEST_F(WebViewTest, AJpegPerCameraAtHalfTheCameraSize) {
   start();
   for (int camera = 0; camera < 2; ++camera) {

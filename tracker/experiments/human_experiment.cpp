@@ -289,18 +289,20 @@ nlohmann::json orNull(const std::optional<int>& value) {
 void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubject& subject,
                             const HumanScene& renderer, const TrackedBody& tracked,
                             const HumanRunScore& score, nlohmann::json& out) {
-  if (config.reset_every > 0) out["reset_every"] = config.reset_every;
-  if (config.reset_every > 0) out["reset_to"] = config.reset_to;
+  if (config.reset_every > 0) {
+    out["reset_every"] = config.reset_every;
+    out["reset_to"] = config.reset_to;
+  }
   if (config.start_frame > 0) out["start_frame"] = config.start_frame;
   if (config.speed_scale != 1) out["speed_scale"] = config.speed_scale;
   if (config.subject_scale != 1) out["subject_scale"] = config.subject_scale;
   if (config.tracked_body != "truth") {
     out["tracked_body"] = config.tracked_body;
-    out["fit_rounds"] = config.fit_rounds;
     out["body_floor_mm"] = score.meanBodyFloorMm();
   }
   if (tracked.fit) {
     out["body_scale"] = tracked.fit->scale;
+    out["fit_rounds"] = config.fit_rounds;
     describeProportions(tracked.fit->proportions, "body_proportions", out);
     out["body_fit_evaluations"] = tracked.fit->evaluations;
     out["body_fit_seconds"] = tracked.fit_seconds;
