@@ -67,7 +67,8 @@ struct HumanExperimentConfig {
   int reset_every = 0;
   // What a reset restarts from: "truth" (the true DOFs, which on a tracked body of other
   // proportions misplace it: its feet float or sink) or "nearest" (the tracked body's pose nearest
-  // the true joints, as body_floor_mm measures; the truth when the body is the subject's own).
+  // the true joints of the last frame scored, as body_floor_mm measures, which with --skip-rate
+  // may be older than the frame before; the truth when the body is the subject's own).
   std::string reset_to = "truth";
   // The tracker's speed limits are this times the model's, by which the truth is bounded: below 1,
   // a subject who moves faster than the tracker allows; above 1, a looser motion prior.

@@ -47,7 +47,8 @@ struct StrideScene {
 double headingError(double a, double b) { return std::abs(std::remainder(a - b, 2 * M_PI)); }
 
 // The stride scene in 4 cameras and an acquiring filter over the factored filter with the
-// defaults for people at `evaluations` a frame.
+// defaults for people at `evaluations` a frame (set in the constructor's body: the acquiring
+// filter makes its hypotheses' filters at its first step, not when it is built).
 struct AcquiringStride {
   explicit AcquiringStride(int evaluations) { options.evaluations_per_frame = evaluations; }
   StrideScene scene{4};
