@@ -277,7 +277,8 @@ void Pipeline::maskLoop() {
       set = synchronizer_->pop(std::chrono::nanoseconds(0));
       if (!set) break;
     }
-    MaskSet masks{set->sequence, 0, set->timestamp_ns, {}};
+    MaskSet masks{set->sequence, 0, set->timestamp_ns, {}, {}};
+    masks.stages.silhouettes_start_ns = monotonicNowNs();
     for (const std::optional<Frame>& frame : set->frames) {
       if (!frame) continue;
       masks.frame_sequence = frame->sequence;
@@ -292,6 +293,7 @@ void Pipeline::maskLoop() {
     if (mask_observer_) mask_observer_(*set, latest);
     body_fit_.add(latest, set->complete());
     masks.masks = latest;
+    masks.stages.silhouettes_end_ns = monotonicNowNs();
     masks_.push(std::move(masks));
   }
   backgrounds_.close();
@@ -325,9 +327,11 @@ void Pipeline::trackerLoop() {
       if (masks_.closed()) break;
       continue;
     }
+    masks->stages.track_start_ns = monotonicNowNs();
     if (body_fit_.takeBodySwitch()) switchToAppliedBody();
     if (reacquire_requested_.exchange(false)) acquiring_->reacquire();
     const FrameEstimate estimate = filter_->step(masks->masks);
+    masks->stages.track_end_ns = monotonicNowNs();
     if (acquiring_) {
       acquisitions_ = static_cast<uint64_t>(earlier_acquisitions_ + acquiring_->acquisitions());
       losses_ = static_cast<uint64_t>(earlier_losses_ + acquiring_->losses());
@@ -351,6 +355,7 @@ std::shared_ptr<Pose> Pipeline::makePose(const MaskSet& masks, const FrameEstima
   auto pose = std::make_shared<Pose>();
   pose->frame_sequence = masks.sequence;
   pose->capture_monotonic_ns = masks.timestamp_ns;
+  pose->stages = masks.stages;
   pose->body_version = body_.version;
   pose->points = pointPositions(body, kinematics_);
   pose->orientations.reserve(body.segments.size());

@@ -185,6 +185,7 @@ class Pipeline {
     uint64_t frame_sequence = 0;  // the camera sequence of the set's first frame
     int64_t timestamp_ns = 0;
     std::vector<SilhouetteMask> masks;
+    StageTimes stages;  // the silhouette stage's part
   };
 
   // Constructor: throws std::invalid_argument if the rig or the reference body does not match.

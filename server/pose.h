@@ -11,6 +11,14 @@
 
 namespace mocap {
 
+// When the pipeline's stages handled a frame set (CLOCK_MONOTONIC ns; proto StageTimes).
+struct StageTimes {
+  int64_t silhouettes_start_ns = 0;
+  int64_t silhouettes_end_ns = 0;
+  int64_t track_start_ns = 0;
+  int64_t track_end_ns = 0;
+};
+
 struct Pose {
   uint64_t frame_sequence = 0;
   int64_t capture_monotonic_ns = 0;  // the frame set's timestamp
@@ -24,6 +32,8 @@ struct Pose {
   double spread = 0;  // particle spread around the estimate
   std::optional<double> silhouette_fit;  // tracker/search/acquire.h silhouetteFit, when measured
   std::optional<double> reference_error_mm;  // vs the true pose, when the source knows it
+
+  StageTimes stages;  // where its latency went
 };
 
 using SharedPose = std::shared_ptr<const Pose>;

@@ -19,6 +19,11 @@ void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int
   out.set_capture_monotonic_ns(pose.capture_monotonic_ns);
   out.set_capture_wall_ns(pose.capture_wall_ns);
   out.set_publish_monotonic_ns(pose.publish_monotonic_ns);
+  v1::StageTimes& stages = *out.mutable_stages();
+  stages.set_silhouettes_start_ns(pose.stages.silhouettes_start_ns);
+  stages.set_silhouettes_end_ns(pose.stages.silhouettes_end_ns);
+  stages.set_track_start_ns(pose.stages.track_start_ns);
+  stages.set_track_end_ns(pose.stages.track_end_ns);
   const auto addJoint = [&](int p) {
     v1::JointPosition* joint = out.add_joints();
     joint->set_name(model.points[p].name);

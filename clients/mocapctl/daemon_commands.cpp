@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <iterator>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -292,11 +293,27 @@ int runBench(int argc, char** argv) {
   const auto end = start + std::chrono::seconds(seconds);
   auto last_progress = start;
   std::vector<double> latencies_ms, errors_mm;
+  // Where each pose's latency went, stage by stage (the names of the JSON's "stages_ms").
+  static const char* const kStages[] = {"capture_to_silhouettes", "silhouettes",
+                                        "silhouettes_to_tracker", "track",
+                                        "tracker_to_publisher",   "publisher_to_client"};
+  constexpr std::size_t kStageCount = std::size(kStages);
+  std::vector<double> stage_ms[kStageCount];
   uint64_t missed = 0, last_frame = first_frame;
   while (Clock::now() < end && reader->Read(&pose)) {
     // Same host, same CLOCK_MONOTONIC: arrival minus exposure is the whole capture-to-wire path.
-    latencies_ms.push_back(static_cast<double>(monotonicNowNs() - pose.capture_monotonic_ns()) /
-                           1e6);
+    const int64_t arrival_ns = monotonicNowNs();
+    latencies_ms.push_back(static_cast<double>(arrival_ns - pose.capture_monotonic_ns()) / 1e6);
+    const mocap::v1::StageTimes& stages = pose.stages();
+    const int64_t times[kStageCount + 1] = {pose.capture_monotonic_ns(),
+                                            stages.silhouettes_start_ns(),
+                                            stages.silhouettes_end_ns(),
+                                            stages.track_start_ns(),
+                                            stages.track_end_ns(),
+                                            pose.publish_monotonic_ns(),
+                                            arrival_ns};
+    for (std::size_t k = 0; k < kStageCount; ++k)
+      stage_ms[k].push_back(static_cast<double>(times[k + 1] - times[k]) / 1e6);
     if (pose.has_reference_error_mm()) errors_mm.push_back(pose.reference_error_mm());
     missed += pose.missed_before();
     last_frame = pose.frame_sequence();
@@ -314,6 +331,7 @@ int runBench(int argc, char** argv) {
       with_latencies ? latencies_ms : std::vector<double>{};
   std::sort(latencies_ms.begin(), latencies_ms.end());
   std::sort(errors_mm.begin(), errors_mm.end());
+  for (std::vector<double>& times : stage_ms) std::sort(times.begin(), times.end());
   const auto percentile = [](const std::vector<double>& sorted, double p) {
     return sorted[static_cast<std::size_t>(p * static_cast<double>(sorted.size() - 1) + 0.5)];
   };
@@ -328,6 +346,9 @@ int runBench(int argc, char** argv) {
         {"p99", percentile(latencies_ms, 0.99)},
         {"max", latencies_ms.back()}}},
   };
+  for (std::size_t k = 0; k < kStageCount; ++k)
+    summary["stages_ms"][kStages[k]] = {{"p50", percentile(stage_ms[k], 0.5)},
+                                        {"p99", percentile(stage_ms[k], 0.99)}};
   // A source that knows the truth (the fake scene): how far the poses were from it.
   if (!errors_mm.empty()) {
     double sum = 0;

@@ -3,6 +3,7 @@
 // reads; the skeleton; the bearer token; TLS; recording paths; background capture while poses
 // flow. The people, body-fit and replay suites are beside it.
 #include <algorithm>
+#include <iterator>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -168,7 +169,13 @@ TEST_F(EndToEndTest, SkeletonDescribesEveryDofAndPoint) {
   EXPECT_EQ(pose.joints(0).name(), skeleton.points(0).name());
   EXPECT_EQ(pose.dofs_size(), skeleton.dofs_size());
   EXPECT_EQ(pose.segment_orientations_size(), skeleton.segments_size());
-  EXPECT_GE(pose.publish_monotonic_ns(), pose.capture_monotonic_ns());
+  // The stages' times follow the frame set from capture to the publisher, in order.
+  const v1::StageTimes& stages = pose.stages();
+  const int64_t times[] = {pose.capture_monotonic_ns(), stages.silhouettes_start_ns(),
+                           stages.silhouettes_end_ns(), stages.track_start_ns(),
+                           stages.track_end_ns(),       pose.publish_monotonic_ns()};
+  for (std::size_t k = 1; k < std::size(times); ++k) EXPECT_LE(times[k - 1], times[k]) << k;
+  EXPECT_LT(stages.track_start_ns(), stages.track_end_ns());
   stream_context.TryCancel();
 
   grpc::ClientContext bad_context;

@@ -95,7 +95,8 @@ TEST(MocapdBinaryTest, SigtermEndsStreamsAndExitsZero) {
 }
 
 // The fake scene knows the truth, so the bench reports the poses' error against it besides the
-// latency and the rate; --latencies adds every pose's latency (for benches that pool windows).
+// latency, split by stage, and the rate; --latencies adds every pose's latency (for benches that
+// pool windows).
 TEST(MocapdBinaryTest, BenchReportsLatencyRateAndErrorAgainstTheTruth) {
   const int port = freePort();
   const pid_t child = startMocapd(port);
@@ -120,6 +121,17 @@ TEST(MocapdBinaryTest, BenchReportsLatencyRateAndErrorAgainstTheTruth) {
     EXPECT_EQ(*std::max_element(latencies.begin(), latencies.end()),
               summary["latency_ms"]["max"].get<double>());
   }
+  // Where the latency went: every stage from capture to this client, the tracker's step taking
+  // time.
+  for (const char* stage : {"capture_to_silhouettes", "silhouettes", "silhouettes_to_tracker",
+                            "track", "tracker_to_publisher", "publisher_to_client"}) {
+    ASSERT_TRUE(summary["stages_ms"].contains(stage)) << stage << "\n" << output;
+    EXPECT_GE(summary["stages_ms"][stage]["p50"].get<double>(), 0) << stage;
+    EXPECT_LE(summary["stages_ms"][stage]["p50"].get<double>(),
+              summary["stages_ms"][stage]["p99"].get<double>())
+        << stage;
+  }
+  EXPECT_GT(summary["stages_ms"]["track"]["p50"].get<double>(), 0);
   ASSERT_TRUE(summary.contains("reference_error_mm")) << output;
   const nlohmann::json& error = summary["reference_error_mm"];
   EXPECT_GT(error["mean"].get<double>(), 0) << output;
