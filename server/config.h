@@ -156,6 +156,10 @@ struct ServerConfig {
   // Replay a recorded session instead of the configured cameras.
   std::string replay_directory;
   bool as_fast_as_possible = false;  // replay: no pacing at the recorded rate
+  // Replay: track the silhouettes the session recorded with each frame instead of extracting them
+  // from its images again. The same silhouettes (the recorder extracts them as a replay does),
+  // without decoding an image: for replays as fast as the tracker goes.
+  bool recorded_silhouettes = false;
 
   bool replay() const { return !replay_directory.empty(); }
 };

@@ -23,6 +23,8 @@ constexpr const char* kUsage = R"(usage: mocapd [options]
   --list-cameras          print every camera every compiled-in driver sees, then exit
   --replay DIR            track a recorded session instead of the cameras; exits at its end
   --as-fast-as-possible   replay without waiting for the recorded pace
+  --recorded-silhouettes  replay the silhouettes the session recorded instead of extracting them
+                          from its images again (the same ones, without decoding an image)
   --help                  this text
 )";
 
@@ -33,6 +35,7 @@ struct Flags {
   std::string replay;
   bool list_cameras = false;
   bool as_fast_as_possible = false;
+  bool recorded_silhouettes = false;
 };
 
 // Exits with status 2 and a message on a bad command line.
@@ -59,6 +62,8 @@ Flags parseFlags(int argc, char** argv) {
       flags.list_cameras = true;
     } else if (arg == "--as-fast-as-possible") {
       flags.as_fast_as_possible = true;
+    } else if (arg == "--recorded-silhouettes") {
+      flags.recorded_silhouettes = true;
     } else if (arg == "--help" || arg == "-h") {
       std::cout << kUsage;
       std::exit(0);
@@ -69,6 +74,10 @@ Flags parseFlags(int argc, char** argv) {
   }
   if (flags.as_fast_as_possible && flags.replay.empty()) {
     std::cerr << "mocapd: --as-fast-as-possible applies to --replay only\n";
+    std::exit(2);
+  }
+  if (flags.recorded_silhouettes && flags.replay.empty()) {
+    std::cerr << "mocapd: --recorded-silhouettes applies to --replay only\n";
     std::exit(2);
   }
   return flags;
@@ -104,6 +113,7 @@ int main(int argc, char** argv) {
   }
   config.replay_directory = flags.replay;
   config.as_fast_as_possible = flags.as_fast_as_possible;
+  config.recorded_silhouettes = flags.recorded_silhouettes;
   mocap::setLogLevel(config.log_level);
 
   // Blocked before any thread exists, so every thread inherits the mask and only sigwait below

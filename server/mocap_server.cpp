@@ -117,6 +117,9 @@ Status MocapServer::openReplay(PipelineInputs& inputs) {
   Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(config.replay_directory);
   if (!reader.ok()) return Status::Error("replay: " + reader.error());
   std::shared_ptr<const SessionReader> session = std::move(reader.value());
+  if (config.recorded_silhouettes && session->manifest().format_version < 2)
+    return Status::Error("replay: --recorded-silhouettes: " + config.replay_directory +
+                         " stores no silhouettes (a format 1 session, recorded before they were)");
   for (std::size_t c = 0; c < session->cameras().size(); ++c) {
     const SessionCamera& recorded = session->cameras()[c];
     OpenedCamera camera;

@@ -247,6 +247,7 @@ void Pipeline::stop() {
 void Pipeline::replayLoop() {
   ReplayPumpOptions options;
   options.real_time = !config_.as_fast_as_possible;
+  options.silhouettes = config_.recorded_silhouettes;
   options.stop = &stop_replay_;
   const Status pumped = pumpSession(*replay_, *synchronizer_, options);
   if (!pumped.ok()) logError() << "replay: " << pumped.message();
@@ -307,6 +308,12 @@ void Pipeline::updateSilhouettes(const FrameSet& set, std::vector<SilhouetteMask
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     if (c >= set.frames.size() || !set.frames[c]) continue;
     const cv::Mat& image = set.frames[c]->image;
+    // The session's silhouette of the frame; none is stored where live had none either (no
+    // background yet), and then nothing is tracked, as live.
+    if (config_.recorded_silhouettes && image.empty()) {
+      has_silhouettes[c] = false;
+      continue;
+    }
     if (image.cols != rig_[c].width || image.rows != rig_[c].height || image.depth() != CV_8U) {
       if (!size_warned[c]) {
         logWarning() << "camera " << c << " delivers " << image.cols << "x" << image.rows
@@ -314,6 +321,11 @@ void Pipeline::updateSilhouettes(const FrameSet& set, std::vector<SilhouetteMask
                      << "; its frames are ignored";
         size_warned[c] = true;
       }
+      continue;
+    }
+    if (config_.recorded_silhouettes) {
+      latest[c] = SilhouetteMask(image);
+      has_silhouettes[c] = true;
       continue;
     }
     has_silhouettes[c] = backgrounds_.silhouette(c, image, set.frames[c]->sequence, latest[c]);
@@ -428,7 +440,9 @@ PipelineStatus Pipeline::status() const {
     status.cameras.push_back(camera);
   }
   const std::vector<std::string> sources = backgrounds_.sources();
-  for (std::size_t c = 0; c < cameras_.size(); ++c) status.cameras[c].silhouettes = sources[c];
+  for (std::size_t c = 0; c < cameras_.size(); ++c)
+    status.cameras[c].silhouettes =
+        config_.recorded_silhouettes ? "recorded in the session" : sources[c];
   status.background_warnings = backgrounds_.warnings();
   status.tracker_fps = tracker_rate_.rate(now);
   status.poses_published = poses_published_;

@@ -93,6 +93,11 @@ RecordingResult RecordingControl::describeCamerasLocked(std::vector<SessionCamer
 }
 
 RecordingResult RecordingControl::start(const std::string& relative_path) {
+  if (config_.recorded_silhouettes)
+    return {RecordingError::kNotConfigured,
+            "this replay hands the tracker the session's silhouettes, not its images: there are "
+            "no frames to record (replay without --recorded-silhouettes to record)",
+            {}};
   RecordingResult result = checkSessionPath(config_.recording_directory, relative_path);
   if (result.error != RecordingError::kNone) return result;
   std::lock_guard session(session_mutex_);

@@ -62,7 +62,9 @@ Status pumpSession(const SessionReader& reader, FrameSynchronizer& sync, const R
       if (options.real_time) {
         std::this_thread::sleep_until(start + std::chrono::nanoseconds(corrected - schedule.front().corrected_ns));
       }
-      Expected<Frame> frame = reader.readFrame(item.set_index, item.camera);
+      Expected<Frame> frame = options.silhouettes
+                                  ? reader.readFrameSilhouette(item.set_index, item.camera)
+                                  : reader.readFrame(item.set_index, item.camera);
       if (!frame.ok()) return finish(Status::Error(frame.error()));
       frame.value().timestamp_ns += loop * span;
       frame.value().sequence += static_cast<uint64_t>(loop) * sequences_per_loop[item.camera];

@@ -18,6 +18,9 @@ struct ReplayPumpOptions {
   int loops = 1;           // passes over the session; later passes shift timestamps and sequences
   bool close_at_end = true;  // close() the synchronizer afterwards, so the consumer drains and ends
   const std::atomic<bool>* stop = nullptr;  // checked between frames; set it, then close() the sync
+  // Each frame's recorded silhouette as its image (SessionReader::readFrameSilhouette) instead of
+  // the stored image: no image is decoded.
+  bool silhouettes = false;
 };
 
 // Call on a thread of its own while another thread pops. Frames are pushed in order of corrected

@@ -69,6 +69,15 @@ std::string describeFrame(int camera, const IndexRecord& record) {
          " (set " + std::to_string(record.set_sequence) + ")";
 }
 
+// Everything of a frame but its pixels, as the index records it.
+void setRecordedFields(const IndexRecord& record, int camera, Frame& frame) {
+  frame.camera = camera;
+  frame.sequence = record.camera_sequence;
+  frame.timestamp_ns = record.timestamp_ns;
+  frame.dropped_before = record.dropped_before;
+  frame.corrupt = record.corrupt;
+}
+
 }  // namespace
 
 Expected<std::unique_ptr<SessionReader>> SessionReader::open(const fs::path& dir, SessionReadOptions options) {
@@ -421,11 +430,18 @@ Expected<Frame> SessionReader::readFrame(std::size_t set_index, int camera) cons
                            std::to_string(cam.height) + " " + cam.pixel_format);
     }
   }
-  frame.camera = camera;
-  frame.sequence = record.camera_sequence;
-  frame.timestamp_ns = record.timestamp_ns;
-  frame.dropped_before = record.dropped_before;
-  frame.corrupt = record.corrupt;
+  setRecordedFields(record, camera, frame);
+  return frame;
+}
+
+Expected<Frame> SessionReader::readFrameSilhouette(std::size_t set_index, int camera) const {
+  Expected<IndexRecord> found = frameRecord(set_index, camera);
+  if (!found.ok()) return Status::Error(found.error());
+  Expected<cv::Mat> silhouette = readSilhouette(set_index, camera);
+  if (!silhouette.ok()) return Status::Error(silhouette.error());
+  Frame frame;
+  frame.image = std::move(silhouette.value());
+  setRecordedFields(found.value(), camera, frame);
   return frame;
 }
 

@@ -90,6 +90,9 @@ class SessionReader {
   // stored): what a threshold turns back into that silhouette. An error names the file and frame
   // if the set has no frame of that camera or the image does not decode.
   Expected<Frame> readFrame(std::size_t set_index, int camera) const;
+  // The same frame with its recorded silhouette (readSilhouette) as the image, decoding no stored
+  // image: an empty Mat if none is stored.
+  Expected<Frame> readFrameSilhouette(std::size_t set_index, int camera) const;
   // The recorded silhouette of `camera` in set `set_index`: CV_8UC1, 255 where the subject is;
   // an empty Mat if none is stored (no background then, or a format 1 session).
   Expected<cv::Mat> readSilhouette(std::size_t set_index, int camera) const;

@@ -1,6 +1,6 @@
 // End to end, replay of recorded sessions: identical poses every run, tracked with the body and
 // settings the session was recorded with, the error measured on the subject's body, silhouettes
-// extracted against the session's backgrounds.
+// extracted against the session's backgrounds, or the recorded silhouettes tracked alike.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -284,6 +284,20 @@ TEST_F(EndToEndTest, ReplayExtractsSilhouettesAgainstTheSessionsBackgrounds) {
   const double agreement = medianAgreement(root / "session", live, replayed);
   std::printf("replayed against live silhouettes, IoU median %.4f\n", agreement);
   EXPECT_GE(agreement, 0.98);
+
+  // The silhouettes the session recorded are those a replay extracts, so tracking them instead
+  // (no image decoded) gives the same poses.
+  const auto extracted_poses = replay(root / "session");
+  PipelineStatus recorded_status;
+  const auto recorded_poses = replay(root / "session", &recorded_status, {}, nullptr, nullptr,
+                                     /*recorded_silhouettes=*/true);
+  EXPECT_EQ(recorded_status.cameras[0].silhouettes, "recorded in the session");
+  ASSERT_GE(extracted_poses.size(), 40u);
+  ASSERT_EQ(recorded_poses.size(), extracted_poses.size());
+  for (std::size_t i = 0; i < extracted_poses.size(); ++i) {
+    ASSERT_EQ(recorded_poses[i].first, extracted_poses[i].first) << "pose " << i;
+    ASSERT_EQ(recorded_poses[i].second, extracted_poses[i].second) << "pose " << i;
+  }
   fs::remove_all(root);
 }
 

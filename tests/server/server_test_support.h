@@ -233,14 +233,15 @@ inline void record(v1::MocapService::Stub& stub, const std::string& name, uint64
 
 // The poses a replay of `session` publishes, frame sequence and DOF vector (and, if asked, its
 // status at the end, the poses' errors, the poses whole; every frame set's silhouettes go to
-// `masks`).
+// `masks`). `recorded_silhouettes`: ServerConfig::recorded_silhouettes.
 inline std::vector<std::pair<uint64_t, std::vector<double>>> replay(
     const fs::path& session, PipelineStatus* end_status = nullptr,
     Pipeline::MaskObserver masks = {}, std::vector<double>* reference_errors = nullptr,
-    std::vector<Pose>* published = nullptr) {
+    std::vector<Pose>* published = nullptr, bool recorded_silhouettes = false) {
   ServerConfig config = test::sceneConfig();
   config.replay_directory = session.string();
   config.as_fast_as_possible = true;
+  config.recorded_silhouettes = recorded_silhouettes;
   Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
   EXPECT_TRUE(server.ok()) << server.error();
   std::vector<std::pair<uint64_t, std::vector<double>>> poses;

@@ -93,6 +93,13 @@ TEST_P(RecordingModes, KeepImagesAsAskedAndTheSilhouettesAReplayExtracts) {
         cv::threshold(gray, thresholded, 127, 255, cv::THRESH_BINARY);
         EXPECT_EQ(cv::norm(thresholded, expected[s][c], cv::NORM_INF), 0);
       }
+      // A replay of the recorded silhouettes gets the same frame with the silhouette as image.
+      Expected<Frame> silhouette_frame = reader.readFrameSilhouette(s, c);
+      ASSERT_TRUE(silhouette_frame.ok()) << silhouette_frame.error();
+      EXPECT_EQ(silhouette_frame.value().sequence, sets[s].frames[c]->sequence);
+      EXPECT_EQ(silhouette_frame.value().timestamp_ns, sets[s].frames[c]->timestamp_ns);
+      ASSERT_EQ(silhouette_frame.value().image.type(), CV_8UC1);
+      EXPECT_EQ(cv::norm(silhouette_frame.value().image, expected[s][c], cv::NORM_INF), 0);
     }
   }
 }
