@@ -1,15 +1,19 @@
-// Silhouette extraction: gain estimate; one pass over the rows that range-tests (vectorized, a
-// bracket of the normalized value, exact where it cannot decide) and runs the shadow test on the
-// changed pixels only (BGR: the colour first; then a plane fit four pixels at a time, joined to
-// textured shadows by connectivity); morphology on bit-packed rows and contour-based blob and hole
-// cleanup, both within the box the opening leaves; slow adaptation.
+// Silhouette extraction: gain estimate (the median by a radix selection); one pass over the rows
+// that range-tests (vectorized, a bracket of the normalized value, exact where it cannot decide)
+// and runs the shadow test on the changed pixels only (ratios with their band and colour tests by
+// blocks of 16 pixels around them; then a plane fit four pixels at a time, joined to textured
+// shadows by connectivity); morphology on bit-packed rows and contour-based blob and hole cleanup,
+// both within the box the opening leaves; slow adaptation, and one pass over the rows for all that
+// derives from the mean.
 #include "tracker/vision/silhouette_extractor.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace mocap {
@@ -47,18 +51,6 @@ int skipUnchanged(const uint8_t* unchanged, int x, int end) {
   return x;
 }
 
-// First column at or after x that is not zero (or `end`): weak shadows are sparse in their box.
-int skipZero(const uint8_t* row, int x, int end) {
-  while (x + 8 <= end) {
-    uint64_t word;
-    std::memcpy(&word, row + x, sizeof word);
-    if (word != 0) break;
-    x += 8;
-  }
-  while (x < end && !row[x]) ++x;
-  return x;
-}
-
 silhouette_kernels::RunMorphology diskMorphology(int radius) {
   if (radius == 0) return {};
   return silhouette_kernels::RunMorphology(
@@ -77,12 +69,46 @@ cv::Mat colorMagnitude(const cv::Mat& bgr) {
   return magnitude;
 }
 
-// Per pixel of a BGR float image: 1 / (b^2 + g^2 + r^2 + 1), into `inverse` (reallocated if
-// needed).
-void inverseColorEnergy(const cv::Mat& bgr, cv::Mat& inverse) {
-  inverse.create(bgr.size(), CV_32FC1);
-  for (int y = 0; y < bgr.rows; ++y)
-    silhouette_kernels::inverseEnergyRow(bgr.ptr<float>(y), bgr.cols, inverse.ptr<float>(y));
+// Gain samples of one row (see estimateGain): frame / background brightness at columns first,
+// first + step, ... of the pixels that were background last frame, with `expected` the background's
+// brightness at each. The bytes sum exactly as integers.
+template <int kChannels>
+void gainSamples(const uint8_t* in, const float* expected, const uint8_t* foreground,
+                 const uint8_t* shadow, int first, int cols, int step,
+                 std::vector<float>& samples) {
+  for (int x = first, i = 0; x < cols; x += step, ++i) {
+    if (foreground[x] | shadow[x]) continue;
+    int observed = in[kChannels * x];
+    for (int c = 1; c < kChannels; ++c) observed += in[kChannels * x + c];
+    // Dark and saturated pixels do not scale with the light.
+    if (expected[i] < 20.0f * kChannels || static_cast<float>(observed) > 250.0f * kChannels)
+      continue;
+    samples.push_back(static_cast<float>(observed) / expected[i]);
+  }
+}
+
+// The k-th smallest (from 0) of finite non-negative floats: the value std::nth_element puts at k.
+// Such floats order as their bit patterns do, so this selects by the top 11 bits, then the next
+// 11, then the last 10, counting without branches (nth_element's comparisons mispredict).
+float kthSmallest(const std::vector<float>& values, std::size_t k, std::vector<uint32_t>& counts) {
+  uint32_t prefix = 0;  // the bits found so far, in place
+  int known = 0;        // how many of the top bits those are
+  for (const int width : {11, 11, 10}) {
+    const int shift = 32 - known - width;
+    counts.assign(std::size_t{1} << width, 0);
+    const uint32_t digit_mask = (uint32_t{1} << width) - 1;
+    for (const float value : values) {
+      const uint32_t bits = std::bit_cast<uint32_t>(value);
+      // Values outside the prefix found so far add 0 (known == 0: all match).
+      const bool matches = known == 0 || (bits >> (32 - known)) == (prefix >> (32 - known));
+      counts[(bits >> shift) & digit_mask] += matches ? 1 : 0;
+    }
+    uint32_t digit = 0;
+    for (; k >= counts[digit]; ++digit) k -= counts[digit];
+    prefix |= digit << shift;
+    known += width;
+  }
+  return std::bit_cast<float>(prefix);
 }
 
 // Rows of the ratio ring: the plane fit reads three floats past the last column.
@@ -94,6 +120,8 @@ constexpr int kRatioBlock = 16;  // pixels per block of ratios computed at once
 SilhouetteExtractor::SilhouetteExtractor(BackgroundModel background, SilhouetteOptions options)
     : options_(options) {
   checkOptions(options_);
+  shadow_band_ = {options_.shadow_min_ratio, options_.shadow_max_ratio,
+                  options_.shadow_chroma_sigmas, options_.shadow_chroma_ratio};
   open_ = diskMorphology(options_.open_radius);
   close_ = diskMorphology(options_.close_radius);
   setBackground(std::move(background));
@@ -142,17 +170,21 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
   scratch_.ratio_rows = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
   scratch_.ratio_squares = cv::Mat::zeros(kRatioRing, stddev.cols + kRatioPadding, CV_32FC1);
   scratch_.fit_columns.reserve(static_cast<std::size_t>(stddev.cols));
-  for (Scratch::RatioSlot& slot : scratch_.ratio_slots)
-    slot.done.assign(
-        static_cast<std::size_t>((stddev.cols + 64 * kRatioBlock - 1) / (64 * kRatioBlock)), 0);
+  scratch_.ratio_blocks = (stddev.cols + kRatioBlock - 1) / kRatioBlock;
+  scratch_.ratio_done.assign(static_cast<std::size_t>(kRatioRing * scratch_.ratio_blocks), -1);
+  scratch_.first_row_number = 0;
 
   const cv::Size size = roi_.size();
   lower_.create(size, CV_8UC(channels));
   upper_.create(size, CV_8UC(channels));
   scratch_.normalized.create(size, CV_8UC(channels));
-  scratch_.normalized_rows.create(kRatioRing, stddev.cols * channels, CV_8UC1);
+  scratch_.band_rows.create(kRatioRing, stddev.cols, CV_8UC1);
+  // Columns whose 5x5 patch lies inside the region: those that may take the plane fit.
+  inner_columns_ = cv::Mat::zeros(1, stddev.cols, CV_8UC1);
+  if (stddev.cols > 4) inner_columns_.colRange(2, stddev.cols - 2).setTo(255);
   scratch_.unchanged.create(size, CV_8UC1);
   scratch_.candidates.create(size, CV_8UC1);
+  scratch_.written_rows.assign(static_cast<std::size_t>(size.height), 1);  // all to clear
   scratch_.cleaned.create(size, CV_8UC1);
   shadow_.create(size, CV_8UC1);
   foreground_.create(background_.size(), CV_8UC1);
@@ -167,24 +199,46 @@ void SilhouetteExtractor::setBackground(BackgroundModel background) {
 }
 
 void SilhouetteExtractor::rebuildBounds() {
-  // mean -+ margin, rounded and clipped to 8 bits.
+  // Everything derived from the mean, row by row while the row is in the caches:
+  // - the unchanged range, mean -+ margin rounded and clipped to 8 bits;
+  // - for the shadow test, what turns the frame into the ratio frame / background (gray: 1 /
+  //   background; BGR: 1 / the background's energy), and the noise of that ratio, (sigma /
+  //   background)^2 or sigma^2 / energy per pixel, each value as the OpenCV calls first written
+  //   (cv::add, divide, multiply) gave it; summed over each 5x5 patch after the loop;
+  // - at the gain's sample points, the background's brightness: the sum of the channel means,
+  //   added in order (from 0, as the first plain loop did: a zero's sign aside, which no sample
+  //   keeps).
   const cv::Mat& mean = mean_view_;
-  const int count = mean.cols * mean.channels();
-  for (int y = 0; y < mean.rows; ++y)
-    silhouette_kernels::boundsRow(mean.ptr<float>(y), margin_.ptr<float>(y), count,
+  const int channels = mean.channels(), step = options_.gain_sample_step;
+  inverse_mean_.create(mean.size(), CV_32FC1);
+  bound_scratch_.create(mean.size(), CV_32FC1);
+  gain_expected_.create((mean.rows - step / 2 + step - 1) / step,
+                        (mean.cols - step / 2 + step - 1) / step, CV_32FC1);
+  for (int y = 0; y < mean.rows; ++y) {
+    const float* mu = mean.ptr<float>(y);
+    silhouette_kernels::boundsRow(mu, margin_.ptr<float>(y), mean.cols * channels,
                                   lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y));
-  // Shadow test: what turns the frame into the ratio frame / background (gray: 1 / background;
-  // BGR: 1 / the background's energy), and the noise of that ratio summed over each 5x5 patch
-  // (unnormalized box filter): (sigma / background)^2, or sigma^2 / energy, per pixel.
-  if (background_.channels() == 1) {
-    cv::add(mean, 1.0f, bound_scratch_);  // never divides by zero
-    cv::divide(1.0f, bound_scratch_, inverse_mean_);
-    cv::multiply(pixel_sigma_, inverse_mean_, bound_scratch_);
-    cv::multiply(bound_scratch_, bound_scratch_, bound_scratch_);
-  } else {
-    inverseColorEnergy(mean, inverse_mean_);
-    cv::multiply(pixel_sigma_, pixel_sigma_, bound_scratch_);
-    cv::multiply(bound_scratch_, inverse_mean_, bound_scratch_);
+    const float* sigma = pixel_sigma_.ptr<float>(y);
+    float* inverse = inverse_mean_.ptr<float>(y);
+    float* noise = bound_scratch_.ptr<float>(y);
+    if (channels == 1) {
+      for (int x = 0; x < mean.cols; ++x) {
+        inverse[x] = 1.0f / (mu[x] + 1.0f);  // as cv::divide: no case for a zero
+        const float relative = sigma[x] * inverse[x];
+        noise[x] = relative * relative;
+      }
+    } else {
+      silhouette_kernels::inverseEnergyRow(mu, mean.cols, inverse);
+      for (int x = 0; x < mean.cols; ++x) noise[x] = sigma[x] * sigma[x] * inverse[x];
+    }
+    if (y < step / 2 || (y - step / 2) % step != 0) continue;
+    float* expected = gain_expected_.ptr<float>((y - step / 2) / step);
+    for (int j = 0; j < gain_expected_.cols; ++j) {
+      const float* pixel = mu + channels * (step / 2 + j * step);
+      float sum = pixel[0];
+      for (int c = 1; c < channels; ++c) sum += pixel[c];
+      expected[j] = sum;
+    }
   }
   cv::boxFilter(bound_scratch_, ratio_noise_, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
 }
@@ -198,123 +252,92 @@ void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
   const cv::Mat previous = foreground_(roi_);
   std::vector<float>& samples = scratch_.gain_samples;
   samples.clear();
-  for (int y = step / 2; y < mean.rows; y += step) {
+  for (int y = step / 2, i = 0; y < mean.rows; y += step, ++i) {
     const uint8_t* in = frame.ptr<uint8_t>(y);
-    const float* mu = mean.ptr<float>(y);
+    const float* expected = gain_expected_.ptr<float>(i);
     const uint8_t* fg = previous.ptr<uint8_t>(y);
     const uint8_t* sh = shadow_.ptr<uint8_t>(y);
-    for (int x = step / 2; x < mean.cols; x += step) {
-      if (fg[x] || sh[x]) continue;
-      float observed = 0, expected = 0;
-      for (int c = 0; c < channels; ++c) {
-        observed += in[x * channels + c];
-        expected += mu[x * channels + c];
-      }
-      // Dark and saturated pixels do not scale with the light.
-      if (expected < 20.0f * channels || observed > 250.0f * channels) continue;
-      samples.push_back(observed / expected);
-    }
+    if (channels == 1)
+      gainSamples<1>(in, expected, fg, sh, step / 2, mean.cols, step, samples);
+    else
+      gainSamples<3>(in, expected, fg, sh, step / 2, mean.cols, step, samples);
   }
   if (samples.size() < 32) return;  // too little background seen: keep the last gain
-  auto middle = samples.begin() + static_cast<std::ptrdiff_t>(samples.size() / 2);
-  std::nth_element(samples.begin(), middle, samples.end());
-  gain_ = *middle;
-}
-
-bool SilhouetteExtractor::keepsBackgroundColor(const uint8_t* in, const float* mu,
-                                               float sigma) const {
-  // A shadow dims the light but keeps the surface's colour: the pixel lies near the background
-  // colour scaled by its brightness ratio.
-  const SilhouetteOptions& o = options_;
-  const float b = in[0], g = in[1], r = in[2];
-  const float mb = mu[0], mg = mu[1], mr = mu[2];
-  const float energy = mb * mb + mg * mg + mr * mr + 1.0f;
-  const float ratio = (b * mb + g * mg + r * mr) / energy;
-  const float db = b - ratio * mb, dg = g - ratio * mg, dr = r - ratio * mr;
-  const float tolerance =
-      o.shadow_chroma_sigmas * sigma + o.shadow_chroma_ratio * ratio * std::sqrt(energy);
-  return db * db + dg * dg + dr * dr <= tolerance * tolerance;
+  gain_ = kthSmallest(samples, samples.size() / 2, scratch_.histogram);
 }
 
 void SilhouetteExtractor::classify(const cv::Mat& region, float scale) {
   // Row y is classified once rows y-2 .. y+2 are tested: the plane fit reads them from a ring.
   const int rows = roi_.height, cols = roi_.width, channels = region.channels();
-  cv::Point weak_min(cols, rows), weak_max(-1, -1);
+  scratch_.weak_pixels.clear();
   scratch_.region = region;
   scratch_.scale = scale;
-  for (Scratch::RatioSlot& slot : scratch_.ratio_slots) slot.row = -1;
+  scratch_.first_row_number += rows;  // no row of an earlier frame has these numbers
   for (int y = 0; y < rows + 2; ++y) {
     if (y < rows)
       silhouette_kernels::testRow(region.ptr<uint8_t>(y), lower_.ptr<uint8_t>(y),
                                   upper_.ptr<uint8_t>(y), cols, channels, scale,
                                   scratch_.unchanged.ptr<uint8_t>(y));
-    if (y >= 2) classifyRow(y - 2, weak_min, weak_max);
+    if (y >= 2) classifyRow(y - 2);
   }
-  if (weak_max.x >= weak_min.x) resolveWeakShadows(cv::Rect(weak_min, weak_max + cv::Point(1, 1)));
+  if (!scratch_.weak_pixels.empty()) resolveWeakShadows();
 }
 
-void SilhouetteExtractor::ensureRatios(int y, int begin, int end) {
+void SilhouetteExtractor::ensureRatios(int first_row, int last_row, int begin, int end) {
   // Ratios are needed only around changed pixels: most rows of most frames have none, and most of
-  // a row with some lies outside them. They are computed by blocks of kRatioBlock pixels.
-  begin = std::max(begin, 0);
-  end = std::min(end, roi_.width);
-  if (begin >= end) return;
-  Scratch::RatioSlot& slot = scratch_.ratio_slots[static_cast<std::size_t>(y % kRatioRing)];
-  if (slot.row != y) {
-    slot.row = y;
-    std::fill(slot.done.begin(), slot.done.end(), 0);
-  }
-  const auto compute = [&](int from, int to) {
-    to = std::min(to, roi_.width);
-    const int channels = background_.channels();
-    const uint8_t* in = scratch_.region.ptr<uint8_t>(y);
-    uint8_t* normalized = scratch_.normalized_rows.ptr<uint8_t>(y % kRatioRing);
-    float* ratio = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
-    float* ratio_squared = scratch_.ratio_squares.ptr<float>(y % kRatioRing);
-    const float* inverse = inverse_mean_.ptr<float>(y);
-    const float* mean = mean_view_.ptr<float>(y);
-    silhouette_kernels::normalizeRow(in + channels * from, channels * (to - from), scratch_.scale,
-                                     normalized + channels * from);
-    if (channels == 1)
-      silhouette_kernels::ratioRow(normalized + from, inverse + from, to - from, ratio + from,
-                                   ratio_squared + from);
-    else
-      silhouette_kernels::colorRatioRow(normalized + 3 * from, mean + 3 * from, inverse + from,
-                                        to - from, ratio + from, ratio_squared + from);
-  };
-  // Runs of blocks not yet done, each in one call.
-  const int last = (end - 1) / kRatioBlock;
-  for (int block = begin / kRatioBlock; block <= last;) {
-    uint64_t& word = slot.done[static_cast<std::size_t>(block / 64)];
-    const uint64_t bit = uint64_t{1} << (block % 64);
-    if (word & bit) {
-      ++block;
-      continue;
+  // a row with some lies outside them. They are computed by blocks of kRatioBlock pixels, runs of
+  // blocks not yet done in one call.
+  const int first = std::max(begin, 0) / kRatioBlock;
+  const int last = (std::min(end, roi_.width) - 1) / kRatioBlock;
+  for (int y = first_row; y <= last_row; ++y) {
+    int64_t* done = scratch_.ratio_done.data() +
+                    static_cast<std::ptrdiff_t>(y % kRatioRing) * scratch_.ratio_blocks;
+    const int64_t row_number = scratch_.first_row_number + y;
+    for (int block = first; block <= last; ++block) {
+      if (done[block] == row_number) continue;
+      int run_end = block + 1;
+      while (run_end <= last && done[run_end] != row_number) ++run_end;
+      std::fill(done + block, done + run_end, row_number);
+      computeRatios(y, block * kRatioBlock, std::min(run_end * kRatioBlock, roi_.width));
+      block = run_end;  // done, or past the last
     }
-    word |= bit;
-    int run_end = block + 1;
-    for (; run_end <= last; ++run_end) {
-      uint64_t& next = slot.done[static_cast<std::size_t>(run_end / 64)];
-      const uint64_t next_bit = uint64_t{1} << (run_end % 64);
-      if (next & next_bit) break;
-      next |= next_bit;
-    }
-    compute(block * kRatioBlock, run_end * kRatioBlock);
-    block = run_end;
   }
 }
 
-void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& weak_max) {
+void SilhouetteExtractor::computeRatios(int y, int from, int to) {
+  const int channels = background_.channels(), slot = y % kRatioRing;
+  const uint8_t* in = scratch_.region.ptr<uint8_t>(y) + channels * from;
+  float* ratio = scratch_.ratio_rows.ptr<float>(slot) + from;
+  float* ratio_squared = scratch_.ratio_squares.ptr<float>(slot) + from;
+  uint8_t* in_band = scratch_.band_rows.ptr<uint8_t>(slot) + from;
+  const float* inverse = inverse_mean_.ptr<float>(y) + from;
+  if (channels == 1)
+    silhouette_kernels::ratioRow(in, scratch_.scale, inverse, to - from, shadow_band_, ratio,
+                                 ratio_squared, in_band);
+  else
+    silhouette_kernels::colorRatioRow(in, scratch_.scale, mean_view_.ptr<float>(y) + 3 * from,
+                                      inverse, pixel_sigma_.ptr<float>(y) + from,
+                                      scratch_.unchanged.ptr<uint8_t>(y) + from, to - from,
+                                      shadow_band_, ratio, ratio_squared, in_band);
+}
+
+void SilhouetteExtractor::classifyRow(int y) {
   const SilhouetteOptions& o = options_;
   const float noise_scale = o.shadow_texture_sigmas * o.shadow_texture_sigmas;
   const int rows = roi_.height, cols = roi_.width;
   const uint8_t* same = scratch_.unchanged.ptr<uint8_t>(y);
   uint8_t* candidate = scratch_.candidates.ptr<uint8_t>(y);
   uint8_t* shadow = shadow_.ptr<uint8_t>(y);
-  std::memset(candidate, 0, static_cast<std::size_t>(cols));
-  std::memset(shadow, 0, static_cast<std::size_t>(cols));
+  // Only rows with a changed pixel are ever written: most rows of most frames stay zero.
+  uint8_t& written = scratch_.written_rows[static_cast<std::size_t>(y)];
+  if (written) {
+    std::memset(candidate, 0, static_cast<std::size_t>(cols));
+    std::memset(shadow, 0, static_cast<std::size_t>(cols));
+    written = 0;
+  }
   const int first_changed = skipUnchanged(same, 0, cols);
   if (first_changed == cols) return;
+  written = 1;
   // A shadow scales the background by a factor that varies smoothly (a soft edge is a ramp), so
   // over the 5x5 patch the ratio frame/background fits a plane up to the noise. A person brings
   // their own shading, stripes and edges and ignores the background's texture: the plane leaves
@@ -322,30 +345,37 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
   // in the shadow band (and, in colour, that keep the background's colour) take the fit; the
   // others are the person's. Colour alone is not enough: grey clothes over a grey floor keep it.
   const bool fits_row = o.suppress_shadows && y > 1 && y < rows - 2;
-  const float* centre = scratch_.ratio_rows.ptr<float>(y % kRatioRing);
-  const bool color = background_.channels() == 3;
-  // Normalized where the ratios are.
-  const uint8_t* in = scratch_.normalized_rows.ptr<uint8_t>(y % kRatioRing);
-  const float* mu = mean_view_.ptr<float>(y);
-  const float* sigma = pixel_sigma_.ptr<float>(y);
+  const uint8_t* in_band = scratch_.band_rows.ptr<uint8_t>(y % kRatioRing);
   std::vector<int>& fit = scratch_.fit_columns;
   fit.clear();
-  int ready_end = 0;  // ratios of this row are computed for the columns below it
-  for (int x = first_changed; x < cols; ++x) {
-    if (same[x]) {
-      x = skipUnchanged(same, x, cols) - 1;
-      continue;
+  // By blocks of kRatioBlock pixels: a changed pixel is a candidate unless it takes the fit; the
+  // ratios (and in_band) of a block are computed if one of its changed pixels may take it.
+  static_assert(kRatioBlock == 16, "one vector of bytes per block");
+  const cv::v_uint8x16 zero = cv::v_setzero_u8();
+  int column = first_changed - first_changed % kRatioBlock;
+  for (; column + kRatioBlock <= cols; column += kRatioBlock) {
+    const cv::v_uint8x16 changed = cv::v_load(same + column) == zero;
+    if (!cv::v_check_any(changed)) continue;
+    cv::v_uint8x16 fits = zero;
+    if (fits_row) {
+      const cv::v_uint8x16 may_fit = changed & cv::v_load(inner_columns_.ptr<uint8_t>() + column);
+      if (cv::v_check_any(may_fit)) {
+        ensureRatios(y, y, column, column + kRatioBlock);
+        fits = may_fit & cv::v_load(in_band + column);
+      }
     }
-    const bool takes_fit = fits_row && x > 1 && x < cols - 2;
-    if (takes_fit && x >= ready_end) {
-      ensureRatios(y, x, x + 1);
-      ready_end = (x / kRatioBlock + 1) * kRatioBlock;
-    }
-    if (takes_fit && centre[x] >= o.shadow_min_ratio && centre[x] <= o.shadow_max_ratio &&
-        (!color || keepsBackgroundColor(in + 3 * x, mu + 3 * x, sigma[x])))
-      fit.push_back(x);
+    cv::v_store(candidate + column, changed & ~fits);
+    for (auto bits = static_cast<unsigned>(cv::v_signmask(fits)); bits != 0; bits &= bits - 1)
+      fit.push_back(column + std::countr_zero(bits));
+  }
+  for (; column < cols; ++column) {  // the last partial block
+    if (same[column]) continue;
+    const bool takes_fit = fits_row && inner_columns_.at<uint8_t>(column);
+    if (takes_fit) ensureRatios(y, y, column, column + 1);
+    if (takes_fit && in_band[column])
+      fit.push_back(column);
     else
-      candidate[x] = 255;
+      candidate[column] = 255;
   }
   if (fit.empty()) return;
   const float* rows_ratio[kRatioRing];
@@ -357,13 +387,17 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
   const float* noise_energy = ratio_noise_.ptr<float>(y);
   const float* texture = texture_.ptr<float>(y);
   uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
-  ready_end = 0;  // now: of all five rows
+  int ready_end = 0;  // ratios of all five rows are computed for the columns below it
   for (std::size_t i = 0; i < fit.size();) {
     const int x0 = fit[i];
-    // fitPlanes reads two columns left of a group of four and two right of it.
+    // fitPlanes reads two columns left of a group of four and two right of it: for the groups that
+    // start within a block's width from here, that is this range (what lies between two of them is
+    // too narrow to hold a block none of them reads).
     if (x0 + 6 > ready_end) {
-      for (int dy = -2; dy <= 2; ++dy) ensureRatios(y + dy, x0 - 2, x0 + 6);
-      ready_end = ((x0 + 5) / kRatioBlock + 1) * kRatioBlock;
+      std::size_t reach = i;
+      while (reach + 1 < fit.size() && fit[reach + 1] < x0 + kRatioBlock) ++reach;
+      ensureRatios(y - 2, y + 2, x0 - 2, fit[reach] + 6);
+      ready_end = ((fit[reach] + 5) / kRatioBlock + 1) * kRatioBlock;
     }
     float mean[4], residual[4];
     silhouette_kernels::fitPlanes(rows_ratio, rows_square, x0, mean, residual);
@@ -377,67 +411,51 @@ void SilhouetteExtractor::classifyRow(int y, cv::Point& weak_min, cv::Point& wea
         shadow[x] = 255;
       } else {
         weak[x] = 255;  // decided by resolveWeakShadows from what it is connected to
-        weak_min = cv::Point(std::min(weak_min.x, x), std::min(weak_min.y, y));
-        weak_max = cv::Point(std::max(weak_max.x, x), std::max(weak_max.y, y));
+        scratch_.weak_pixels.push_back(static_cast<std::ptrdiff_t>(y) * cols + x);
       }
     }
   }
 }
 
-void SilhouetteExtractor::resolveWeakShadows(cv::Rect box) {
+void SilhouetteExtractor::resolveWeakShadows() {
   // A smooth dark patch over a flat background fits a scaled background as well as a shadow does.
   // It is a shadow if it joins (8-connected, through weak or confident shadow pixels) a shadow that
   // showed the background's texture, else part of the person (a person's smooth clothing is ringed
   // by edges that fail the fit). Along any such path the last weak pixel before the first
   // confident one touches it: a flood through weak pixels, from those touching a confident one,
-  // reaches exactly the weak pixels of such components. They all lie in the weak pixels' box, and
-  // the confident pixels they touch at most one pixel outside it.
-  const cv::Rect frame(cv::Point(0, 0), weak_shadow_.size());
+  // reaches exactly the weak pixels of such components. Weak pixels take the plane fit, so lie two
+  // pixels or more inside the frame: their neighbours need no bounds check, and one offset into
+  // the continuous masks names a pixel in each.
   constexpr uint8_t kReached = 1;  // a weak pixel (255) found to be a shadow
-  std::vector<int>& stack = scratch_.flood_stack;
+  const std::ptrdiff_t width = weak_shadow_.cols;
+  const std::ptrdiff_t neighbours[8] = {-width - 1, -width, -width + 1, -1,
+                                        1,          width,  width + 1,  width - 1};
+  uint8_t* const weak = weak_shadow_.data;
+  uint8_t* const sure = shadow_.data;
+  uint8_t* const candidate = scratch_.candidates.data;
+  const std::vector<std::ptrdiff_t>& weak_pixels = scratch_.weak_pixels;
+  std::vector<std::ptrdiff_t>& stack = scratch_.flood_stack;
   stack.clear();
-  const auto touchesConfident = [&](int x, int y) {
-    for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, frame.height - 1); ++ny) {
-      const uint8_t* sure = shadow_.ptr<uint8_t>(ny);
-      if (x > 0 && x + 1 < frame.width) {
-        if (sure[x - 1] | sure[x] | sure[x + 1]) return true;
-        continue;
-      }
-      for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, frame.width - 1); ++nx)
-        if (sure[nx]) return true;
-    }
-    return false;
-  };
-  for (int y = box.y; y < box.br().y; ++y) {
-    uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
-    for (int x = skipZero(weak, box.x, box.br().x); x < box.br().x;
-         x = skipZero(weak, x + 1, box.br().x)) {
-      if (!touchesConfident(x, y)) continue;
-      weak[x] = kReached;
-      stack.push_back(y * frame.width + x);
-    }
+  for (const std::ptrdiff_t at : weak_pixels) {
+    const uint8_t* around = sure + at;
+    if (!(around[-width - 1] | around[-width] | around[-width + 1] | around[-1] | around[0] |
+          around[1] | around[width - 1] | around[width] | around[width + 1]))
+      continue;
+    weak[at] = kReached;
+    stack.push_back(at);
   }
   while (!stack.empty()) {
-    const int y = stack.back() / frame.width, x = stack.back() % frame.width;
+    const std::ptrdiff_t at = stack.back();
     stack.pop_back();
-    for (int ny = std::max(y - 1, box.y); ny <= std::min(y + 1, box.br().y - 1); ++ny) {
-      uint8_t* weak = weak_shadow_.ptr<uint8_t>(ny);
-      for (int nx = std::max(x - 1, box.x); nx <= std::min(x + 1, box.br().x - 1); ++nx) {
-        if (weak[nx] != 255) continue;
-        weak[nx] = kReached;
-        stack.push_back(ny * frame.width + nx);
-      }
+    for (const std::ptrdiff_t offset : neighbours) {
+      if (weak[at + offset] != 255) continue;
+      weak[at + offset] = kReached;
+      stack.push_back(at + offset);
     }
   }
-  for (int y = box.y; y < box.br().y; ++y) {
-    uint8_t* weak = weak_shadow_.ptr<uint8_t>(y);
-    uint8_t* sure = shadow_.ptr<uint8_t>(y);
-    uint8_t* candidate = scratch_.candidates.ptr<uint8_t>(y);
-    for (int x = skipZero(weak, box.x, box.br().x); x < box.br().x;
-         x = skipZero(weak, x + 1, box.br().x)) {
-      (weak[x] == kReached ? sure : candidate)[x] = 255;
-      weak[x] = 0;  // ready for the next frame
-    }
+  for (const std::ptrdiff_t at : weak_pixels) {
+    (weak[at] == kReached ? sure : candidate)[at] = 255;
+    weak[at] = 0;  // ready for the next frame
   }
 }
 

@@ -6,7 +6,8 @@
 // first ones (except inside OpenCV's contour finder and the SilhouetteMask constructor).
 #pragma once
 
-#include <array>
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -94,35 +95,40 @@ class SilhouetteExtractor {
     cv::Mat normalized;                     // the region divided by the gain (for adaptation)
     cv::Mat unchanged;                      // 255 where every channel is in range
     cv::Mat candidates;                     // changed and not shadow, before cleanup
+    std::vector<uint8_t> written_rows;      // per row: candidates or shadows may be nonzero
     silhouette_kernels::PackedMask packed;  // the candidates through the morphology
     cv::Mat cleaned;
-    // Of 5 rows (row y in slot y % 5), around changed pixels: the normalized frame (bytes), frame /
-    // background and its square.
-    cv::Mat normalized_rows, ratio_rows, ratio_squares;
-    struct RatioSlot {
-      int row = -1;                // the row a ring slot holds this frame
-      std::vector<uint64_t> done;  // bit b: the block of columns b computed for that row
-    };
-    std::array<RatioSlot, 5> ratio_slots;
+    // Of 5 rows (row y in slot y % 5), around changed pixels: frame / background and its square,
+    // and 255 where a pixel may be a shadow (ShadowBand).
+    cv::Mat ratio_rows, ratio_squares, band_rows;
+    // Per ring slot and block of columns: the number of the row computed there (first_row_number
+    // + y, growing from frame to frame), so a new row or frame needs no reset.
+    std::vector<int64_t> ratio_done;
+    int ratio_blocks = 0;  // per row
+    int64_t first_row_number = 0;
     std::vector<int> fit_columns;  // one row's pixels that take the plane fit
-    std::vector<int> flood_stack;
+    // Offsets into the (continuous) region-sized masks: this frame's weak shadow pixels, and the
+    // flood through them.
+    std::vector<std::ptrdiff_t> weak_pixels, flood_stack;
     std::vector<std::vector<cv::Point>> contours;
     std::vector<cv::Vec4i> hierarchy;
     std::vector<float> gain_samples;
+    std::vector<uint32_t> histogram;  // of the gain samples' bits, to find their median
   };
 
   void rebuildBounds();
   void estimateGain(const cv::Mat& frame);
-  bool keepsBackgroundColor(const uint8_t* in, const float* mu, float sigma) const;
   void classify(const cv::Mat& region, float scale);
-  void ensureRatios(int y, int begin, int end);
-  void classifyRow(int y, cv::Point& weak_min, cv::Point& weak_max);
-  void resolveWeakShadows(cv::Rect box);
+  void ensureRatios(int first_row, int last_row, int begin, int end);
+  void computeRatios(int y, int from, int to);
+  void classifyRow(int y);
+  void resolveWeakShadows();
   void cleanup();
   void adapt();
 
   BackgroundModel background_;
   SilhouetteOptions options_;
+  silhouette_kernels::ShadowBand shadow_band_;  // of the options
   cv::Rect roi_;
   cv::Mat mean_view_;      // the background's mean in the region of interest (shares its data)
   cv::Mat margin_;         // per channel: max(threshold_sigmas * stddev, min_difference)
@@ -130,8 +136,10 @@ class SilhouetteExtractor {
   cv::Mat inverse_mean_;   // gray: 1 / (mean + 1); BGR: 1 / (|mean|^2 + 1)
   cv::Mat ratio_noise_;    // sum over each 5x5 patch of the ratio's noise variance
   cv::Mat texture_;        // the background's texture energy over each 5x5 patch / noise
+  cv::Mat inner_columns_;  // one row: 255 at the columns whose 5x5 patch lies in the region
   cv::Mat weak_shadow_;    // fits a shadow over a flat patch (255); 0 between frames
   cv::Mat lower_, upper_;  // CV_8UC(c): the unchanged range of each channel
+  cv::Mat gain_expected_;  // at the gain's sample points: the background's brightness
   cv::Mat bound_scratch_;
   cv::Mat foreground_, shadow_;
   cv::Rect drawn_;  // within the region of interest: where the last frame's foreground was drawn

@@ -73,6 +73,45 @@ bool insidePixel(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, 
   return true;
 }
 
+// testRow for a known channel count, so the per-channel loops unroll.
+template <int kChannels>
+void testRowOf(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int cols, float scale,
+               uint8_t* unchanged) {
+  const v_float32x4 vscale = cv::v_setall_f32(scale);
+  const v_uint8x16 zero = cv::v_setzero_u8(), all = cv::v_setall_u8(255);
+  const Bracket bracket(scale);
+  const auto testPixels = [&](int x) {  // x .. x + 15
+    const int first = kChannels * x;
+    v_uint8x16 unsure = zero;
+    for (int part = 0; part < kChannels; ++part)
+      unsure = unsure | bracket.unsure(in + first + 16 * part, lower + first + 16 * part,
+                                       upper + first + 16 * part);
+    if (!cv::v_check_any(unsure != zero)) {
+      cv::v_store(unchanged + x, all);
+      return;
+    }
+    // Exactly: the normalized bytes outside their range.
+    v_uint8x16 out_of_range[kChannels];
+    for (int part = 0; part < kChannels; ++part) {
+      const int offset = first + 16 * part;
+      out_of_range[part] =
+          outside(scaleBytes(cv::v_load(in + offset), vscale), lower + offset, upper + offset);
+    }
+    if constexpr (kChannels == 1) {
+      cv::v_store(unchanged + x, out_of_range[0] == zero);
+    } else {
+      uint8_t bytes[48];
+      for (int part = 0; part < 3; ++part) cv::v_store(bytes + 16 * part, out_of_range[part]);
+      v_uint8x16 b, g, r;
+      cv::v_load_deinterleave(bytes, b, g, r);
+      cv::v_store(unchanged + x, (b | g | r) == zero);
+    }
+  };
+  int x = 0;
+  for (; x + 16 <= cols; x += 16) testPixels(x);
+  if (x < cols) testPixels(cols - 16);  // the last 16, overlapping: the same values again
+}
+
 }  // namespace
 
 void normalizeRow(const uint8_t* in, int count, float scale, uint8_t* normalized) {
@@ -95,39 +134,10 @@ void testRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int 
                          : 0;
     return;
   }
-  const v_float32x4 vscale = cv::v_setall_f32(scale);
-  const v_uint8x16 zero = cv::v_setzero_u8(), all = cv::v_setall_u8(255);
-  const Bracket bracket(scale);
-  const auto testPixels = [&](int x) {  // x .. x + 15
-    const int first = channels * x;
-    v_uint8x16 unsure = zero;
-    for (int part = 0; part < channels; ++part)
-      unsure = unsure | bracket.unsure(in + first + 16 * part, lower + first + 16 * part,
-                                       upper + first + 16 * part);
-    if (!cv::v_check_any(unsure != zero)) {
-      cv::v_store(unchanged + x, all);
-      return;
-    }
-    // Exactly: the normalized bytes outside their range.
-    v_uint8x16 out_of_range[3];
-    for (int part = 0; part < channels; ++part) {
-      const int offset = first + 16 * part;
-      out_of_range[part] =
-          outside(scaleBytes(cv::v_load(in + offset), vscale), lower + offset, upper + offset);
-    }
-    if (channels == 1) {
-      cv::v_store(unchanged + x, out_of_range[0] == zero);
-      return;
-    }
-    uint8_t bytes[48];
-    for (int part = 0; part < 3; ++part) cv::v_store(bytes + 16 * part, out_of_range[part]);
-    v_uint8x16 b, g, r;
-    cv::v_load_deinterleave(bytes, b, g, r);
-    cv::v_store(unchanged + x, (b | g | r) == zero);
-  };
-  int x = 0;
-  for (; x + 16 <= cols; x += 16) testPixels(x);
-  if (x < cols) testPixels(cols - 16);  // the last 16, overlapping: the same values again
+  if (channels == 1)
+    testRowOf<1>(in, lower, upper, cols, scale, unchanged);
+  else
+    testRowOf<3>(in, lower, upper, cols, scale, unchanged);
 }
 
 void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower, uint8_t* upper) {
@@ -140,10 +150,12 @@ void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower
       below[part] = cv::v_round(mu - width);
       above[part] = cv::v_round(mu + width);
     }
+    // Signed packs to 16 bits, then unsigned to 8: both clamp to [0, 255] as saturate_cast does,
+    // and SSE2 has a single instruction for each (not for the unsigned 32 to 16 bit pack).
     cv::v_store(lower + i,
-                cv::v_pack(cv::v_pack_u(below[0], below[1]), cv::v_pack_u(below[2], below[3])));
+                cv::v_pack_u(cv::v_pack(below[0], below[1]), cv::v_pack(below[2], below[3])));
     cv::v_store(upper + i,
-                cv::v_pack(cv::v_pack_u(above[0], above[1]), cv::v_pack_u(above[2], above[3])));
+                cv::v_pack_u(cv::v_pack(above[0], above[1]), cv::v_pack(above[2], above[3])));
   }
   for (; i < count; ++i) {
     lower[i] = cv::saturate_cast<uint8_t>(mean[i] - margin[i]);
@@ -165,81 +177,167 @@ void inverseEnergyRow(const float* bgr, int cols, float* inverse) {
   }
 }
 
-void ratioRow(const uint8_t* normalized, const float* inverse_mean, int cols, float* ratio,
-              float* ratio_squared) {
-  int x = 0;
-  for (; x + 8 <= cols; x += 8) {
-    v_uint32x4 low, high;
-    cv::v_expand(cv::v_load_expand(normalized + x), low, high);
-    const v_float32x4 q0 =
-        cv::v_cvt_f32(cv::v_reinterpret_as_s32(low)) * cv::v_load(inverse_mean + x);
-    const v_float32x4 q1 =
-        cv::v_cvt_f32(cv::v_reinterpret_as_s32(high)) * cv::v_load(inverse_mean + x + 4);
-    cv::v_store(ratio + x, q0);
-    cv::v_store(ratio + x + 4, q1);
-    cv::v_store(ratio_squared + x, q0 * q0);
-    cv::v_store(ratio_squared + x + 4, q1 * q1);
-  }
-  for (; x < cols; ++x) {
-    ratio[x] = normalized[x] * inverse_mean[x];
-    ratio_squared[x] = ratio[x] * ratio[x];
-  }
+namespace {
+
+// Normalized values as floats: saturate(round_half_even(raw * scale)), as normalizeRow gives them.
+// The products are finite and non-negative while scale < kFastScaleLimit, where clamping to 255
+// before rounding is saturating after it.
+v_float32x4 normalizedFloats(const v_float32x4& raw, const v_float32x4& scale) {
+  return cv::v_cvt_f32(cv::v_round(cv::v_min(raw * scale, cv::v_setall_f32(255.0f))));
 }
 
-void colorRatioRow(const uint8_t* normalized, const float* mean, const float* inverse_energy,
-                   int cols, float* ratio, float* ratio_squared) {
+// The four groups of four floats of 16 bytes.
+void bytesToFloats(const v_uint8x16& bytes, v_float32x4 out[4]) {
+  v_uint16x8 low, high;
+  cv::v_expand(bytes, low, high);
+  v_uint32x4 a, c;
+  cv::v_expand(low, a, c);
+  out[0] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a));
+  out[1] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(c));
+  cv::v_expand(high, a, c);
+  out[2] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a));
+  out[3] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(c));
+}
+
+// The colour test of one pixel, as colorRatioRow's vectors do it.
+bool keepsColour(const float pixel[3], const float* mu, float sigma, const ShadowBand& band) {
+  const float b = pixel[0], g = pixel[1], r = pixel[2];
+  const float mb = mu[0], mg = mu[1], mr = mu[2];
+  const float energy = mb * mb + mg * mg + mr * mr + 1.0f;
+  const float ratio = (b * mb + g * mg + r * mr) / energy;
+  const float db = b - ratio * mb, dg = g - ratio * mg, dr = r - ratio * mr;
+  const float tolerance =
+      band.chroma_sigmas * sigma + band.chroma_ratio * ratio * std::sqrt(energy);
+  return db * db + dg * dg + dr * dr <= tolerance * tolerance;
+}
+
+}  // namespace
+
+void ratioRow(const uint8_t* in, float scale, const float* inverse_mean, int cols,
+              const ShadowBand& band, float* ratio, float* ratio_squared, uint8_t* in_band) {
+  const v_float32x4 vscale = cv::v_setall_f32(scale), min_ratio = cv::v_setall_f32(band.min_ratio),
+                    max_ratio = cv::v_setall_f32(band.max_ratio);
   int x = 0;
-  for (; x + 16 <= cols; x += 16) {
-    cv::v_uint8x16 b8, g8, r8;
-    cv::v_load_deinterleave(normalized + 3 * x, b8, g8, r8);
-    v_float32x4 b[4], g[4], r[4];
-    const auto toFloats = [](const cv::v_uint8x16& bytes, v_float32x4 out[4]) {
-      cv::v_uint16x8 low, high;
-      cv::v_expand(bytes, low, high);
-      cv::v_uint32x4 a, c;
-      cv::v_expand(low, a, c);
-      out[0] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a));
-      out[1] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(c));
-      cv::v_expand(high, a, c);
-      out[2] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a));
-      out[3] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(c));
-    };
-    toFloats(b8, b);
-    toFloats(g8, g);
-    toFloats(r8, r);
-    for (int k = 0; k < 4; ++k) {
-      const int at = x + 4 * k;
-      v_float32x4 mb, mg, mr;
-      cv::v_load_deinterleave(mean + 3 * at, mb, mg, mr);
-      const v_float32x4 q = (b[k] * mb + g[k] * mg + r[k] * mr) * cv::v_load(inverse_energy + at);
-      cv::v_store(ratio + at, q);
-      cv::v_store(ratio_squared + at, q * q);
+  if (scale < kFastScaleLimit) {
+    for (; x + 16 <= cols; x += 16) {
+      v_float32x4 value[4];
+      bytesToFloats(cv::v_load(in + x), value);
+      cv::v_int32x4 inside[4];
+      for (int k = 0; k < 4; ++k) {
+        const int at = x + 4 * k;
+        const v_float32x4 q = normalizedFloats(value[k], vscale) * cv::v_load(inverse_mean + at);
+        cv::v_store(ratio + at, q);
+        cv::v_store(ratio_squared + at, q * q);
+        inside[k] = cv::v_reinterpret_as_s32((q >= min_ratio) & (q <= max_ratio));
+      }
+      // All-ones lanes stay all ones through the signed packs.
+      cv::v_store(reinterpret_cast<int8_t*>(in_band + x),
+                  cv::v_pack(cv::v_pack(inside[0], inside[1]), cv::v_pack(inside[2], inside[3])));
     }
   }
   for (; x < cols; ++x) {
-    const uint8_t* in = normalized + 3 * x;
-    const float* mu = mean + 3 * x;
-    ratio[x] = (in[0] * mu[0] + in[1] * mu[1] + in[2] * mu[2]) * inverse_energy[x];
+    ratio[x] = cv::saturate_cast<uint8_t>(in[x] * scale) * inverse_mean[x];
     ratio_squared[x] = ratio[x] * ratio[x];
+    in_band[x] = ratio[x] >= band.min_ratio && ratio[x] <= band.max_ratio ? 255 : 0;
+  }
+}
+
+void colorRatioRow(const uint8_t* in, float scale, const float* mean, const float* inverse_energy,
+                   const float* sigma, const uint8_t* unchanged, int cols, const ShadowBand& band,
+                   float* ratio, float* ratio_squared, uint8_t* in_band) {
+  const v_float32x4 vscale = cv::v_setall_f32(scale), one = cv::v_setall_f32(1.0f),
+                    min_ratio = cv::v_setall_f32(band.min_ratio),
+                    max_ratio = cv::v_setall_f32(band.max_ratio),
+                    chroma_sigmas = cv::v_setall_f32(band.chroma_sigmas),
+                    chroma_ratio = cv::v_setall_f32(band.chroma_ratio);
+  int x = 0;
+  if (scale < kFastScaleLimit) {
+    for (; x + 16 <= cols; x += 16) {
+      v_uint8x16 b8, g8, r8;
+      cv::v_load_deinterleave(in + 3 * x, b8, g8, r8);
+      v_float32x4 b[4], g[4], r[4];
+      bytesToFloats(b8, b);
+      bytesToFloats(g8, g);
+      bytesToFloats(r8, r);
+      // All ones where the pixel changed, per lane of each group of four (signed expansions keep
+      // all ones).
+      cv::v_int32x4 changed[4];
+      {
+        cv::v_int16x8 low, high;
+        cv::v_expand(cv::v_reinterpret_as_s8(cv::v_load(unchanged + x) == cv::v_setzero_u8()), low,
+                     high);
+        cv::v_expand(low, changed[0], changed[1]);
+        cv::v_expand(high, changed[2], changed[3]);
+      }
+      cv::v_int32x4 inside[4];
+      for (int k = 0; k < 4; ++k) {
+        const int at = x + 4 * k;
+        const v_float32x4 nb = normalizedFloats(b[k], vscale), ng = normalizedFloats(g[k], vscale),
+                          nr = normalizedFloats(r[k], vscale);
+        v_float32x4 mb, mg, mr;
+        cv::v_load_deinterleave(mean + 3 * at, mb, mg, mr);
+        const v_float32x4 dot = nb * mb + ng * mg + nr * mr;
+        const v_float32x4 q = dot * cv::v_load(inverse_energy + at);
+        cv::v_store(ratio + at, q);
+        cv::v_store(ratio_squared + at, q * q);
+        inside[k] = cv::v_reinterpret_as_s32((q >= min_ratio) & (q <= max_ratio)) & changed[k];
+        if (!cv::v_check_any(inside[k])) continue;
+        // keepsColour, lane by lane; its divisions and roots only where they decide.
+        const v_float32x4 energy = mb * mb + mg * mg + mr * mr + one;
+        const v_float32x4 own = dot / energy;
+        const v_float32x4 db = nb - own * mb, dg = ng - own * mg, dr = nr - own * mr;
+        const v_float32x4 tolerance =
+            chroma_sigmas * cv::v_load(sigma + at) + chroma_ratio * own * cv::v_sqrt(energy);
+        inside[k] = inside[k] &
+                    cv::v_reinterpret_as_s32(db * db + dg * dg + dr * dr <= tolerance * tolerance);
+      }
+      cv::v_store(reinterpret_cast<int8_t*>(in_band + x),
+                  cv::v_pack(cv::v_pack(inside[0], inside[1]), cv::v_pack(inside[2], inside[3])));
+    }
+  }
+  for (; x < cols; ++x) {
+    float pixel[3];
+    for (int c = 0; c < 3; ++c) pixel[c] = cv::saturate_cast<uint8_t>(in[3 * x + c] * scale);
+    const float* mu = mean + 3 * x;
+    ratio[x] = (pixel[0] * mu[0] + pixel[1] * mu[1] + pixel[2] * mu[2]) * inverse_energy[x];
+    ratio_squared[x] = ratio[x] * ratio[x];
+    in_band[x] = !unchanged[x] && ratio[x] >= band.min_ratio && ratio[x] <= band.max_ratio &&
+                         keepsColour(pixel, mu, sigma[x], band)
+                     ? 255
+                     : 0;
   }
 }
 
 void fitPlanes(const float* const rows[5], const float* const squares[5], int x0, float mean[4],
                float residual[4]) {
-  const v_float32x4 zero = cv::v_setzero_f32();
-  v_float32x4 sum = zero, sum_sq = zero, sum_x = zero, sum_y = zero;
+  // The plain loop's sums start at 0 and add q * dx per term: 0 + q is q, q * 0 adds a zero (at
+  // most the sign of a zero sum_x changes, which its square drops), adding q * -1 is subtracting q
+  // and q * 2 is q + q, all exactly; so the terms below are the plain loop's in its order.
+  v_float32x4 sum, sum_sq, sum_x, sum_y;
   for (int dy = -2; dy <= 2; ++dy) {
     const float* ratio = rows[dy + 2] + x0;
     const float* square = squares[dy + 2] + x0;
-    v_float32x4 row = zero;
-    for (int dx = -2; dx <= 2; ++dx) {
-      const v_float32x4 q = cv::v_load(ratio + dx);
-      row = row + q;
-      sum_sq = sum_sq + cv::v_load(square + dx);
-      sum_x = sum_x + q * cv::v_setall_f32(static_cast<float>(dx));
+    const v_float32x4 q0 = cv::v_load(ratio - 2), q1 = cv::v_load(ratio - 1),
+                      q2 = cv::v_load(ratio), q3 = cv::v_load(ratio + 1),
+                      q4 = cv::v_load(ratio + 2);
+    const v_float32x4 row = (((q0 + q1) + q2) + q3) + q4;
+    const v_float32x4 first_x = q0 + q0;  // q0 * 2, negated below
+    if (dy == -2) {
+      sum_sq = cv::v_load(square - 2);
+      sum_x = cv::v_setzero_f32() - first_x;
+      sum = row;
+      sum_y = row * cv::v_setall_f32(-2.0f);
+    } else {
+      sum_sq = sum_sq + cv::v_load(square - 2);
+      sum_x = sum_x - first_x;
+      sum = sum + row;
+      sum_y = sum_y + row * cv::v_setall_f32(static_cast<float>(dy));
     }
-    sum = sum + row;
-    sum_y = sum_y + row * cv::v_setall_f32(static_cast<float>(dy));
+    sum_sq = sum_sq + cv::v_load(square - 1);
+    sum_sq = sum_sq + cv::v_load(square);
+    sum_sq = sum_sq + cv::v_load(square + 1);
+    sum_sq = sum_sq + cv::v_load(square + 2);
+    sum_x = ((sum_x - q1) + q3) + (q4 + q4);
   }
   // Least-squares plane over the symmetric 5x5 grid: sum(dx^2) = sum(dy^2) = 50.
   const v_float32x4 patch_mean = sum / cv::v_setall_f32(25.0f);
@@ -247,6 +345,19 @@ void fitPlanes(const float* const rows[5], const float* const squares[5], int x0
   cv::v_store(residual, sum_sq - sum * patch_mean -
                             (sum_x * sum_x + sum_y * sum_y) / cv::v_setall_f32(50.0f));
 }
+
+namespace {
+
+// Zeroes words [first, end) of rows [top, bottom) of rows of `words` words.
+void clearBox(std::vector<uint64_t>& bits, int words, int top, int bottom, int first, int end) {
+  if (first >= end) return;
+  for (int y = top; y < bottom; ++y) {
+    uint64_t* row = bits.data() + static_cast<std::size_t>(y) * words;
+    std::fill(row + first, row + end, 0);
+  }
+}
+
+}  // namespace
 
 cv::Rect PackedMask::box() const {
   if (empty()) return {};
@@ -275,15 +386,32 @@ void PackedMask::shrinkBox() {
 
 void pack(const cv::Mat& src, PackedMask& dst) {
   CV_Assert(src.type() == CV_8UC1);
-  dst.rows = src.rows;
-  dst.cols = src.cols;
-  dst.words = (src.cols + 63) / 64;
-  dst.bits.assign(static_cast<std::size_t>(dst.rows) * dst.words, 0);
+  const int words = (src.cols + 63) / 64;
+  if (dst.rows == src.rows && dst.cols == src.cols &&
+      dst.bits.size() == static_cast<std::size_t>(src.rows) * words) {
+    // Zero but in its box already (the last frame's): clearing that is enough.
+    clearBox(dst.bits, words, dst.top, dst.bottom, dst.first_word, dst.end_word);
+  } else {
+    dst.rows = src.rows;
+    dst.cols = src.cols;
+    dst.words = words;
+    dst.bits.assign(static_cast<std::size_t>(dst.rows) * dst.words, 0);
+  }
   const v_uint8x16 zero = cv::v_setzero_u8();
   for (int y = 0; y < src.rows; ++y) {
     const uint8_t* in = src.ptr<uint8_t>(y);
     uint64_t* out = dst.row(y);
     int x = 0;
+    // A word at a time; most words of most frames are zero, and stay so.
+    for (; x + 64 <= src.cols; x += 64) {
+      const v_uint8x16 set[4] = {cv::v_load(in + x) != zero, cv::v_load(in + x + 16) != zero,
+                                 cv::v_load(in + x + 32) != zero, cv::v_load(in + x + 48) != zero};
+      if (!cv::v_check_any(set[0] | set[1] | set[2] | set[3])) continue;
+      uint64_t word = 0;
+      for (int part = 0; part < 4; ++part)
+        word |= static_cast<uint64_t>(cv::v_signmask(set[part])) << (16 * part);
+      out[x / 64] = word;
+    }
     for (; x + 16 <= src.cols; x += 16) {
       const auto set = static_cast<uint64_t>(cv::v_signmask(cv::v_load(in + x) != zero));
       out[x / 64] |= set << (x % 64);
@@ -385,7 +513,16 @@ void RunMorphology::apply(PackedMask& mask, bool erode) {
     first = std::max(0, first - 1);
     end = std::min(words, end + 1);
   }
-  result_.assign(mask.bits.size(), 0);
+  // result_ holds what the last call swapped out: zero but in its box.
+  if (result_.size() == mask.bits.size() && spare_words_ == words)
+    clearBox(result_, words, spare_top_, spare_bottom_, spare_first_, spare_end_);
+  else
+    result_.assign(mask.bits.size(), 0);
+  spare_words_ = words;
+  spare_top_ = mask.top;
+  spare_bottom_ = mask.bottom;
+  spare_first_ = mask.first_word;
+  spare_end_ = mask.end_word;
   if (mask.empty()) {
     mask.bits.swap(result_);
     return;

@@ -28,16 +28,30 @@ void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower
 // Per pixel of `cols` BGR floats: 1 / (b^2 + g^2 + r^2 + 1), summed in that order as a plain loop.
 void inverseEnergyRow(const float* bgr, int cols, float* inverse);
 
-// ratio = normalized * inverse_mean (the gray shadow test's frame / background) and its square.
-void ratioRow(const uint8_t* normalized, const float* inverse_mean, int cols, float* ratio,
-              float* ratio_squared);
+// Which pixels may be shadows before any plane fit: those whose own ratio frame / background lies
+// in [min_ratio, max_ratio] and, in colour, that keep the background's colour.
+struct ShadowBand {
+  float min_ratio, max_ratio, chroma_sigmas, chroma_ratio;
+};
 
-// The colour shadow test's ratio: the frame's component along the background colour over the
-// background's, ratio = (b * mb + g * mg + r * mr) * inverse_energy, where `normalized` holds BGR
-// bytes, `mean` the background's BGR floats and inverse_energy 1 / (mb^2 + mg^2 + mr^2 + 1); and
-// its square. The sums run in that order, as a plain loop does.
-void colorRatioRow(const uint8_t* normalized, const float* mean, const float* inverse_energy,
-                   int cols, float* ratio, float* ratio_squared);
+// From the frame's bytes `in` and the gain's `scale`: ratio = normalized * inverse_mean (the gray
+// shadow test's frame / background), with normalized as normalizeRow gives it, and its square;
+// in_band = 255 where the ratio lies in the band, else 0.
+void ratioRow(const uint8_t* in, float scale, const float* inverse_mean, int cols,
+              const ShadowBand& band, float* ratio, float* ratio_squared, uint8_t* in_band);
+
+// The colour shadow test's ratio, from the frame's BGR bytes `in` normalized as normalizeRow does
+// (b, g, r): the frame's component along the background colour over the background's, ratio = (b *
+// mb + g * mg + r * mr) * inverse_energy, where `mean` holds the background's BGR floats and
+// inverse_energy 1 / (mb^2 + mg^2 + mr^2 + 1); and its square. The sums run in that order, as a
+// plain loop does. in_band = 255 where the pixel changed (unchanged is 0), its ratio lies in the
+// band and it keeps the background's colour, else 0: with c = (b * mb + g * mg + r * mr) / (mb^2 +
+// mg^2 + mr^2 + 1), |pixel - c * mean|^2 <= (chroma_sigmas * sigma + chroma_ratio * c * |mean|)^2,
+// each operation that of the plain scalar expression, in its order (and only computed for the
+// pixels it decides).
+void colorRatioRow(const uint8_t* in, float scale, const float* mean, const float* inverse_energy,
+                   const float* sigma, const uint8_t* unchanged, int cols, const ShadowBand& band,
+                   float* ratio, float* ratio_squared, uint8_t* in_band);
 
 // The least-squares plane of the ratio over the 5x5 patches centred on pixels x0 .. x0+3 of the
 // middle row: `rows` and `squares` point at the five rows' ratios and squared ratios, readable from
@@ -62,8 +76,9 @@ struct PackedMask {
   void shrinkBox();
 };
 
-// Nonzero bytes of `src` (8-bit, one channel) become set bits; `dst` is resized to match and its
-// box is the set bits' rows and words.
+// Nonzero bytes of `src` (8-bit, one channel) become set bits; `dst` is resized to match (one of
+// that size already keeps its buffer and clears its box) and its box is the set bits' rows and
+// words.
 void pack(const cv::Mat& src, PackedMask& dst);
 // The box's pixels: set bits become 255, the others 0, in `dst` (the mask's size; allocated if
 // needed). Pixels outside the box are left as they are.
@@ -95,6 +110,8 @@ class RunMorphology {
   std::vector<uint64_t> line_;         // one row with a border word on both sides
   std::vector<uint8_t> nonzero_rows_;  // per row of the mask: any bit set
   std::vector<uint64_t> result_;
+  // Of result_ (rows of spare_words_ words): zero outside these rows and words.
+  int spare_words_ = 0, spare_top_ = 0, spare_bottom_ = 0, spare_first_ = 0, spare_end_ = 0;
 };
 
 }  // namespace mocap::silhouette_kernels

@@ -400,6 +400,79 @@ TEST(SilhouetteKernels, TestRowIsConvertToThenInRange) {
       }
 }
 
+// The ratio kernels normalize the frame's bytes themselves (vectors below a scale of 128, plain
+// code above it and in a last partial vector): their ratios, squares and band flags are those of
+// the bytes normalizeRow gives, through the plain expressions. Half the colour pixels are a dimmed
+// background, so that the colour test passes as well as fails.
+TEST(SilhouetteKernels, RatioRowsAreOfNormalizeRow) {
+  cv::RNG rng(5);
+  const silhouette_kernels::ShadowBand band{0.35f, 0.97f, 3.0f, 0.06f};
+  const auto inside = [&band](float ratio) {
+    return ratio >= band.min_ratio && ratio <= band.max_ratio;
+  };
+  for (const int cols : {5, 16, 37, 780})
+    for (const float scale : {0.0f, 0.37f, 0.93f, 1.0f, 1.0371f, 3.3f, 127.9f, 300.0f}) {
+      std::vector<float> ratio(cols), squared(cols);
+      std::vector<uint8_t> in_band(cols);
+
+      cv::Mat gray(1, cols, CV_8UC1), normalized(1, cols, CV_8UC1), inverse(1, cols, CV_32FC1);
+      rng.fill(gray, cv::RNG::UNIFORM, 0, 256);
+      rng.fill(inverse, cv::RNG::UNIFORM, 0.002, 0.02);
+      silhouette_kernels::normalizeRow(gray.ptr<uint8_t>(), cols, scale, normalized.ptr<uint8_t>());
+      silhouette_kernels::ratioRow(gray.ptr<uint8_t>(), scale, inverse.ptr<float>(), cols, band,
+                                   ratio.data(), squared.data(), in_band.data());
+      for (int x = 0; x < cols; ++x) {
+        const float expected = normalized.at<uint8_t>(x) * inverse.at<float>(x);
+        ASSERT_EQ(ratio[x], expected) << "gray, " << cols << " columns, scale " << scale;
+        ASSERT_EQ(squared[x], expected * expected);
+        ASSERT_EQ(in_band[x], inside(expected) ? 255 : 0);
+      }
+
+      cv::Mat mean(1, cols, CV_32FC3), bgr(1, cols, CV_8UC3), sigma(1, cols, CV_32FC1),
+          unchanged(1, cols, CV_8UC1), energy(1, cols, CV_32FC1);
+      rng.fill(mean, cv::RNG::UNIFORM, 20, 230);
+      rng.fill(bgr, cv::RNG::UNIFORM, 0, 256);
+      rng.fill(sigma, cv::RNG::UNIFORM, 1, 4);
+      for (int x = 0; x < cols; ++x) {
+        unchanged.at<uint8_t>(x) = rng.uniform(0, 4) == 0 ? 255 : 0;
+        if (x % 2 || scale == 0) continue;
+        const float dim = rng.uniform(0.3f, 1.0f);
+        for (int c = 0; c < 3; ++c)
+          bgr.at<cv::Vec3b>(x)[c] = cv::saturate_cast<uint8_t>(
+              mean.at<cv::Vec3f>(x)[c] * dim / scale + rng.uniform(-2.0f, 2.0f));
+      }
+      cv::Mat normalized_bgr(1, cols, CV_8UC3);
+      silhouette_kernels::normalizeRow(bgr.ptr<uint8_t>(), 3 * cols, scale,
+                                       normalized_bgr.ptr<uint8_t>());
+      silhouette_kernels::inverseEnergyRow(mean.ptr<float>(), cols, energy.ptr<float>());
+      silhouette_kernels::colorRatioRow(
+          bgr.ptr<uint8_t>(), scale, mean.ptr<float>(), energy.ptr<float>(), sigma.ptr<float>(),
+          unchanged.ptr<uint8_t>(), cols, band, ratio.data(), squared.data(), in_band.data());
+      int kept = 0;
+      for (int x = 0; x < cols; ++x) {
+        const cv::Vec3b in = normalized_bgr.at<cv::Vec3b>(x);
+        const cv::Vec3f mu = mean.at<cv::Vec3f>(x);
+        const float b = in[0], g = in[1], r = in[2];
+        const float expected = (b * mu[0] + g * mu[1] + r * mu[2]) * energy.at<float>(x);
+        // The colour test as first written (SilhouetteExtractor::keepsBackgroundColor).
+        const float total = mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2] + 1.0f;
+        const float own = (b * mu[0] + g * mu[1] + r * mu[2]) / total;
+        const float db = b - own * mu[0], dg = g - own * mu[1], dr = r - own * mu[2];
+        const float tolerance =
+            band.chroma_sigmas * sigma.at<float>(x) + band.chroma_ratio * own * std::sqrt(total);
+        const bool keeps = db * db + dg * dg + dr * dr <= tolerance * tolerance;
+        ASSERT_EQ(ratio[x], expected) << "colour, " << cols << " columns, scale " << scale;
+        ASSERT_EQ(squared[x], expected * expected);
+        const bool expected_band = !unchanged.at<uint8_t>(x) && inside(expected) && keeps;
+        ASSERT_EQ(in_band[x], expected_band ? 255 : 0) << "column " << x << ", scale " << scale;
+        kept += expected_band;
+      }
+      if (cols == 780 && scale > 0.5f && scale < 2) {
+        EXPECT_GT(kept, 0);  // the test saw the colour test pass
+      }
+    }
+}
+
 // Counts OpenCV's parallel loops and runs each on the calling thread.
 class CountingParallelBackend : public cv::parallel::ParallelForAPI {
  public:
