@@ -4,6 +4,7 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <chrono>
 #include <cstring>
 #include <iostream>
 #include <string>
@@ -131,13 +132,20 @@ int main(int argc, char** argv) {
     return 1;
   }
   mocap::MocapServer& server = *created.value();
+  const auto start_time = std::chrono::steady_clock::now();
   if (const mocap::Status started = server.start(); !started.ok()) {
     mocap::logError() << started.message();
     return 1;
   }
   if (config.replay()) {
-    std::thread([&server] {
+    std::thread([&server, start_time] {
       server.pipeline().waitForReplayEnd();
+      // The replay's own pace: the daemon's set-up and shutdown left out.
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+      const uint64_t poses = server.pipeline().status().poses_published;
+      mocap::logInfo() << "replay: " << poses << " poses in " << seconds << " s ("
+                       << static_cast<double>(poses) / seconds << " a second)";
       kill(getpid(), SIGUSR1);
     }).detach();
   }
