@@ -20,6 +20,7 @@
 #include <opencv2/core.hpp>
 
 #include "drivers/builtin_drivers.h"
+#include "drivers/record/recording_test_scene.h"
 #include "drivers/record/session_reader.h"
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
@@ -298,6 +299,36 @@ TEST_F(EndToEndTest, ReplayExtractsSilhouettesAgainstTheSessionsBackgrounds) {
     ASSERT_EQ(recorded_poses[i].first, extracted_poses[i].first) << "pose " << i;
     ASSERT_EQ(recorded_poses[i].second, extracted_poses[i].second) << "pose " << i;
   }
+  fs::remove_all(root);
+}
+
+// A replay of the recorded silhouettes has no images to record, and a session of format 1 stores
+// no silhouettes: both refused, naming why.
+TEST_F(EndToEndTest, ReplayOfRecordedSilhouettesRefusesWhatItCannotDo) {
+  const fs::path root = freshDirectory("replay_recorded_refusals");
+  Recorder recorder(root);
+  ASSERT_TRUE(recorder.open("session", test::sceneRig(), test::sceneCameras()).ok());
+  recorder.write(test::sceneSet(0));
+  ASSERT_TRUE(recorder.close().ok());
+  ServerConfig config = test::sceneConfig();
+  config.replay_directory = recorder.sessionPath().string();
+  config.recording_directory = fs::canonical(root).string();
+  config.recorded_silhouettes = true;
+  {
+    Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+    ASSERT_TRUE(server.ok()) << server.error();
+    const RecordingResult refused = server.value()->pipeline().startRecording("again");
+    EXPECT_EQ(refused.error, RecordingError::kNotConfigured);
+    EXPECT_THAT(refused.message, ::testing::HasSubstr("no frames to record"));
+    EXPECT_FALSE(fs::exists(root / "again"));
+  }
+  test::downgradeToFormatOne(recorder.sessionPath());
+  const Expected<std::unique_ptr<MocapServer>> server = MocapServer::create(config);
+  ASSERT_FALSE(server.ok());
+  EXPECT_THAT(server.error(), ::testing::HasSubstr(config.replay_directory +
+                                                   " stores no silhouettes (a format 1 session"));
+  config.recorded_silhouettes = false;  // its images are still replayed
+  EXPECT_TRUE(MocapServer::create(config).ok());
   fs::remove_all(root);
 }
 

@@ -4,7 +4,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -145,18 +144,7 @@ TEST_F(RecordingModes, ReadsFormatOneSessions) {
   recorder.write(set);
   ASSERT_TRUE(recorder.close().ok());
   const fs::path session = recorder.sessionPath();
-  test::rewrite(session / kManifestFile, [](std::string text) {
-    text.replace(text.find("format_version: 2"), 17, "format_version: 1");
-    text.erase(text.find("images: lossless\n"), 17);
-    return text;
-  });
-  for (int c = 0; c < 2; ++c)
-    test::rewrite(session / cameraDirectoryName(c) / kIndexFile, [](const std::string& text) {
-      std::istringstream lines(text);
-      std::string v1, line;
-      while (std::getline(lines, line)) v1 += line.substr(0, line.rfind(',')) + "\n";
-      return v1;
-    });
+  test::downgradeToFormatOne(session);
   Expected<std::unique_ptr<SessionReader>> reader = SessionReader::open(session);
   ASSERT_TRUE(reader.ok()) << reader.error();
   EXPECT_EQ(reader.value()->images(), ImageMode::kLossless);

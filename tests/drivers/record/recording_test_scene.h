@@ -9,6 +9,7 @@
 #include <functional>
 #include <iterator>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,23 @@ inline void rewrite(const std::filesystem::path& path,
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   in.close();
   std::ofstream(path, std::ios::trunc) << edit(std::move(text));
+}
+
+// Makes a lossless session of two cameras one recorded before format 2: no `images` key, index
+// lines without a silhouette column.
+inline void downgradeToFormatOne(const std::filesystem::path& session) {
+  rewrite(session / kManifestFile, [](std::string text) {
+    text.replace(text.find("format_version: 2"), 17, "format_version: 1");
+    text.erase(text.find("images: lossless\n"), 17);
+    return text;
+  });
+  for (int c = 0; c < 2; ++c)
+    rewrite(session / cameraDirectoryName(c) / kIndexFile, [](const std::string& text) {
+      std::istringstream lines(text);
+      std::string v1, line;
+      while (std::getline(lines, line)) v1 += line.substr(0, line.rfind(',')) + "\n";
+      return v1;
+    });
 }
 
 }  // namespace mocap::test
