@@ -96,6 +96,16 @@ double medianAgreement(const fs::path& session, const SilhouetteLog& a, const Si
   return median(std::move(agreement));  // NaN, failing every bar, if no frame was compared
 }
 
+// Two replays' poses are the same, frame by frame, to the bit.
+void expectSamePoses(const std::vector<std::pair<uint64_t, std::vector<double>>>& a,
+                     const std::vector<std::pair<uint64_t, std::vector<double>>>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].first, b[i].first) << "pose " << i;
+    ASSERT_EQ(a[i].second, b[i].second) << "pose " << i;
+  }
+}
+
 // Also: a session tracked on the scene's true silhouettes stores the empty scene as each camera's
 // background, so its replay, which has no truth, extracts silhouettes close to the truth.
 TEST_F(EndToEndTest, ReplayGivesIdenticalPosesEveryRun) {
@@ -121,11 +131,7 @@ TEST_F(EndToEndTest, ReplayGivesIdenticalPosesEveryRun) {
   EXPECT_GE(agreement, 0.9);
   const auto second = replay(root / "session");
   EXPECT_GE(first.size(), 100u);
-  ASSERT_EQ(first.size(), second.size());
-  for (std::size_t i = 0; i < first.size(); ++i) {
-    ASSERT_EQ(first[i].first, second[i].first) << "pose " << i;
-    ASSERT_EQ(first[i].second, second[i].second) << "pose " << i;
-  }
+  expectSamePoses(first, second);
   fs::remove_all(root);
 }
 
@@ -294,11 +300,7 @@ TEST_F(EndToEndTest, ReplayExtractsSilhouettesAgainstTheSessionsBackgrounds) {
                                      /*recorded_silhouettes=*/true);
   EXPECT_EQ(recorded_status.cameras[0].silhouettes, "recorded in the session");
   ASSERT_GE(extracted_poses.size(), 40u);
-  ASSERT_EQ(recorded_poses.size(), extracted_poses.size());
-  for (std::size_t i = 0; i < extracted_poses.size(); ++i) {
-    ASSERT_EQ(recorded_poses[i].first, extracted_poses[i].first) << "pose " << i;
-    ASSERT_EQ(recorded_poses[i].second, extracted_poses[i].second) << "pose " << i;
-  }
+  expectSamePoses(recorded_poses, extracted_poses);
   fs::remove_all(root);
 }
 
