@@ -304,16 +304,19 @@ int runBench(int argc, char** argv) {
     // Same host, same CLOCK_MONOTONIC: arrival minus exposure is the whole capture-to-wire path.
     const int64_t arrival_ns = monotonicNowNs();
     latencies_ms.push_back(static_cast<double>(arrival_ns - pose.capture_monotonic_ns()) / 1e6);
-    const mocap::v1::StageTimes& stages = pose.stages();
-    const int64_t times[kStageCount + 1] = {pose.capture_monotonic_ns(),
-                                            stages.silhouettes_start_ns(),
-                                            stages.silhouettes_end_ns(),
-                                            stages.track_start_ns(),
-                                            stages.track_end_ns(),
-                                            pose.publish_monotonic_ns(),
-                                            arrival_ns};
-    for (std::size_t k = 0; k < kStageCount; ++k)
-      stage_ms[k].push_back(static_cast<double>(times[k + 1] - times[k]) / 1e6);
+    // A daemon older than the stage times sends none: its latency is not split.
+    if (pose.has_stages()) {
+      const mocap::v1::StageTimes& stages = pose.stages();
+      const int64_t times[kStageCount + 1] = {pose.capture_monotonic_ns(),
+                                              stages.silhouettes_start_ns(),
+                                              stages.silhouettes_end_ns(),
+                                              stages.track_start_ns(),
+                                              stages.track_end_ns(),
+                                              pose.publish_monotonic_ns(),
+                                              arrival_ns};
+      for (std::size_t k = 0; k < kStageCount; ++k)
+        stage_ms[k].push_back(static_cast<double>(times[k + 1] - times[k]) / 1e6);
+    }
     if (pose.has_reference_error_mm()) errors_mm.push_back(pose.reference_error_mm());
     missed += pose.missed_before();
     last_frame = pose.frame_sequence();
@@ -346,7 +349,7 @@ int runBench(int argc, char** argv) {
         {"p99", percentile(latencies_ms, 0.99)},
         {"max", latencies_ms.back()}}},
   };
-  for (std::size_t k = 0; k < kStageCount; ++k)
+  for (std::size_t k = 0; k < kStageCount && !stage_ms[k].empty(); ++k)
     summary["stages_ms"][kStages[k]] = {{"p50", percentile(stage_ms[k], 0.5)},
                                         {"p99", percentile(stage_ms[k], 0.99)}};
   // A source that knows the truth (the fake scene): how far the poses were from it.
