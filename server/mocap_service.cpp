@@ -163,12 +163,12 @@ grpc::ServerUnaryReactor* MocapServiceImpl::GetStatus(grpc::CallbackServerContex
   response->set_tracker_fps(status.tracker_fps);
   response->set_poses_published(status.poses_published);
   response->set_frame_sets_skipped(status.frame_sets_skipped);
-  v1::LatencyPercentiles* latency = response->mutable_latency();
-  latency->set_p50_ms(status.latency.p50_ms);
-  latency->set_p90_ms(status.latency.p90_ms);
-  latency->set_p99_ms(status.latency.p99_ms);
-  latency->set_max_ms(status.latency.max_ms);
-  latency->set_samples(static_cast<uint32_t>(status.latency.samples));
+  latencyToProto(status.latency, *response->mutable_latency());
+  for (const auto& [stage, latency] : status.stage_latency) {
+    v1::StageLatency& out = *response->add_stage_latency();
+    out.set_stage(stage);
+    latencyToProto(latency, *out.mutable_latency());
+  }
   response->set_subscribers(static_cast<uint32_t>(publisher_.subscriberCount()));
   recordingToProto(status.recording, *response->mutable_recording());
   response->set_tracker_method(config_.tracker.method);

@@ -14,6 +14,7 @@
 // public methods are called from the service's threads unless they say otherwise.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -22,6 +23,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "drivers/camera_driver.h"
@@ -99,6 +101,9 @@ struct PipelineStatus {
   uint64_t acquisitions = 0;  // times the tracker found the subject by itself
   uint64_t losses = 0;        // times it declared itself lost (tracker.lost_below)
   LatencySummary latency;
+  // Live: the same poses' latency by stage (Pose::stages), in pipeline order, named as in the
+  // proto's Status.stage_latency.
+  std::vector<std::pair<std::string, LatencySummary>> stage_latency;
   RecordingStatus recording;
   // Saved backgrounds refused or ignored at start-up, one line each naming the file (also logged).
   std::vector<std::string> background_warnings;
@@ -242,6 +247,7 @@ class Pipeline {
   std::vector<std::unique_ptr<RateMeter>> camera_rates_;
   RateMeter tracker_rate_;
   LatencyWindow latency_;
+  std::array<LatencyWindow, 5> stage_latency_;  // PipelineStatus::stage_latency's
   std::atomic<uint64_t> poses_published_{0};
   std::atomic<double> evaluations_per_frame_{0};
   std::atomic<uint64_t> refinements_cut_{0};

@@ -99,6 +99,14 @@ void cameraInfoToProto(const OpenedCamera& camera, v1::CameraInfo& out) {
   configured->set_pixel_format(camera.config.pixel_format);
 }
 
+void latencyToProto(const LatencySummary& latency, v1::LatencyPercentiles& out) {
+  out.set_p50_ms(latency.p50_ms);
+  out.set_p90_ms(latency.p90_ms);
+  out.set_p99_ms(latency.p99_ms);
+  out.set_max_ms(latency.max_ms);
+  out.set_samples(static_cast<uint32_t>(latency.samples));
+}
+
 void recordingToProto(const RecordingStatus& recording, v1::RecordingState& out) {
   out.set_active(recording.active);
   out.set_path(recording.path);

@@ -16,6 +16,7 @@ void poseToProto(const Pose& pose, const BodyModel& model, const std::vector<int
 void skeletonToProto(const BodyModel& model, uint32_t body_version, v1::Skeleton& out);
 void cameraInfoToProto(const OpenedCamera& camera, v1::CameraInfo& out);
 void recordingToProto(const RecordingStatus& recording, v1::RecordingState& out);
+void latencyToProto(const LatencySummary& latency, v1::LatencyPercentiles& out);
 void cameraStatusToProto(const OpenedCamera& camera, const CameraRuntimeStatus& status,
                          bool pipeline_running, v1::CameraStatus& out);
 // A successful fit: the fitted body as a body model file, its proportions and figures.

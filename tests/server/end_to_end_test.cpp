@@ -97,6 +97,18 @@ TEST_F(EndToEndTest, SubscribersKeepUpWhileOneNeverReads) {
   EXPECT_EQ(status.cameras(0).state(), v1::CAMERA_STATE_STREAMING);
   EXPECT_GT(status.cameras(0).measured_fps(), 20.0);
   EXPECT_GT(status.latency().samples(), 0u);
+  // The latency split by stage, in pipeline order, the step taking time.
+  std::vector<std::string> stages;
+  for (const v1::StageLatency& stage : status.stage_latency()) {
+    stages.push_back(stage.stage());
+    EXPECT_GT(stage.latency().samples(), 0u) << stage.stage();
+    EXPECT_GE(stage.latency().p50_ms(), 0) << stage.stage();
+  }
+  EXPECT_THAT(stages,
+              ::testing::ElementsAre("capture_to_silhouettes", "silhouettes",
+                                     "silhouettes_to_tracker", "track", "tracker_to_publisher"));
+  ASSERT_EQ(status.stage_latency_size(), 5);
+  EXPECT_GT(status.stage_latency(3).latency().p50_ms(), 0);
 
   stalled_context.TryCancel();
   server->shutdown();
