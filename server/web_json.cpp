@@ -90,6 +90,10 @@ std::string statusJson(const ServerConfig& config, const PipelineStatus& status,
                        {"p99", status.latency.p99_ms},
                        {"max", status.latency.max_ms},
                        {"samples", status.latency.samples}};
+  json stages = json::array();
+  for (const auto& [stage, latency] : status.stage_latency)
+    stages.push_back({{"stage", stage}, {"p50", latency.p50_ms}, {"p99", latency.p99_ms}});
+  out["stage_latency_ms"] = std::move(stages);
   out["recording"] = {{"active", status.recording.active},
                       {"path", status.recording.path},
                       {"frame_sets", status.recording.frame_sets}};

@@ -180,7 +180,12 @@ async function refreshStatus() {
           `${s.tracker_fps.toFixed(1)} poses/s, silhouette fit ${fit}, latency p50 ` +
           `${s.latency_ms.p50.toFixed(1)} ms p99 ${s.latency_ms.p99.toFixed(1)} ms, ` +
           `${s.losses} losses, ${s.acquisitions} acquisitions, sets skipped ` +
-          `${s.frame_sets_skipped}` + (s.recording.active ? `, recording ${s.recording.path}` : '');
+          `${s.frame_sets_skipped}` +
+          (s.recording.active ? `, recording ${s.recording.path}` : '') +
+          (s.stage_latency_ms.length ? '; by stage (p50/p99 ms) ' +
+                   s.stage_latency_ms.map(t => `${t.stage} ${t.p50.toFixed(1)}/${t.p99.toFixed(1)}`)
+                       .join(', ') :
+                                       '');
       const table = document.getElementById('camera-status');
       table.textContent = '';
       const head = table.insertRow();

@@ -143,6 +143,10 @@ TEST_F(WebViewTest, StatusAndScene) {
   EXPECT_EQ(parsed["mode"], "live");
   EXPECT_EQ(parsed["cameras"].size(), 2u);
   EXPECT_FALSE(parsed["token_required"].get<bool>());
+  // The latency split by stage, as GetStatus gives it, in pipeline order.
+  ASSERT_EQ(parsed["stage_latency_ms"].size(), 5u) << status->body;
+  EXPECT_EQ(parsed["stage_latency_ms"][0]["stage"], "capture_to_silhouettes");
+  EXPECT_EQ(parsed["stage_latency_ms"][3]["stage"], "track");
   auto scene = client_->Get("/api/scene");
   ASSERT_TRUE(scene);
   const json cameras = json::parse(scene->body)["cameras"];
