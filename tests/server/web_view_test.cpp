@@ -545,10 +545,12 @@ bool isOutline(const cv::Vec3b& bgr) { return bgr[2] > 170 && bgr[0] > 170 && bg
 constexpr const char* kPageState = R"(JSON.stringify({
   cameras: cameraViews.map(v => v.shows || null),
   world: !!world.renderer, pose: latestPose !== null,
-  status_rows: document.querySelectorAll('#camera-status tr').length}))";
+  status_rows: document.querySelectorAll('#camera-status tr').length,
+  summary: document.getElementById('summary').textContent}))";
 constexpr const char* kPageShowsAll = R"(cameraViews.length === 2 &&
   cameraViews.every(v => v.shows && v.shows.image && v.shows.outline) && !!world.renderer &&
-  latestPose !== null && document.querySelectorAll('#camera-status tr').length === 3)";
+  latestPose !== null && document.querySelectorAll('#camera-status tr').length === 3 &&
+  document.getElementById('summary').textContent.includes('by stage (p50/p99 ms) capture_to'))";
 
 TEST_F(WebViewTest, ChromiumShowsTheOutlineOverTheSubjectAndThe3dView) {
   const std::string browser = chromium();
