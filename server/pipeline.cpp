@@ -404,11 +404,8 @@ void Pipeline::publisherLoop() {
     // Replayed timestamps are from the recording's past: no latency to measure.
     if (!config_.replay()) {
       latency_.add(now - p.capture_monotonic_ns);
-      const int64_t times[] = {p.capture_monotonic_ns,      p.stages.silhouettes_start_ns,
-                               p.stages.silhouettes_end_ns, p.stages.track_start_ns,
-                               p.stages.track_end_ns,       now};
-      for (std::size_t k = 0; k < stage_latency_.size(); ++k)
-        stage_latency_[k].add(times[k + 1] - times[k]);
+      const auto durations = stageDurations(p, now);
+      for (std::size_t k = 0; k < stage_latency_.size(); ++k) stage_latency_[k].add(durations[k]);
     }
     if (observer_) observer_(p);
     publisher_.publish(std::move(*pose));
@@ -464,11 +461,8 @@ PipelineStatus Pipeline::status() const {
   }
   status.refinements_cut = refinements_cut_;
   status.latency = latency_.summary();
-  static const char* const kStages[] = {"capture_to_silhouettes", "silhouettes",
-                                        "silhouettes_to_tracker", "track", "tracker_to_publisher"};
-  static_assert(std::size(kStages) == std::tuple_size_v<decltype(stage_latency_)>);
   for (std::size_t k = 0; k < stage_latency_.size(); ++k)
-    status.stage_latency.emplace_back(kStages[k], stage_latency_[k].summary());
+    status.stage_latency.emplace_back(kLatencyStages[k], stage_latency_[k].summary());
   status.recording = recording_.status();
   return status;
 }

@@ -247,7 +247,7 @@ class Pipeline {
   std::vector<std::unique_ptr<RateMeter>> camera_rates_;
   RateMeter tracker_rate_;
   LatencyWindow latency_;
-  std::array<LatencyWindow, 5> stage_latency_;  // PipelineStatus::stage_latency's
+  std::array<LatencyWindow, kLatencyStages.size()> stage_latency_;  // one per stage
   std::atomic<uint64_t> poses_published_{0};
   std::atomic<double> evaluations_per_frame_{0};
   std::atomic<uint64_t> refinements_cut_{0};

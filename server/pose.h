@@ -2,6 +2,8 @@
 // once published and shared (never copied) between subscribers.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -18,6 +20,12 @@ struct StageTimes {
   int64_t track_start_ns = 0;
   int64_t track_end_ns = 0;
 };
+
+// The stages a pose's latency splits into, in pipeline order, as proto Status.stage_latency names
+// them; stageDurations gives each one's time.
+inline constexpr std::array<const char*, 5> kLatencyStages = {
+    "capture_to_silhouettes", "silhouettes", "silhouettes_to_tracker", "track",
+    "tracker_to_publisher"};
 
 struct Pose {
   uint64_t frame_sequence = 0;
@@ -37,5 +45,17 @@ struct Pose {
 };
 
 using SharedPose = std::shared_ptr<const Pose>;
+
+// The nanoseconds `pose` spent in each of kLatencyStages, the publisher having taken it at
+// `publish_ns`.
+inline std::array<int64_t, kLatencyStages.size()> stageDurations(const Pose& pose,
+                                                                 int64_t publish_ns) {
+  const StageTimes& s = pose.stages;
+  const int64_t times[] = {pose.capture_monotonic_ns, s.silhouettes_start_ns, s.silhouettes_end_ns,
+                           s.track_start_ns,          s.track_end_ns,         publish_ns};
+  std::array<int64_t, kLatencyStages.size()> durations{};
+  for (std::size_t k = 0; k < durations.size(); ++k) durations[k] = times[k + 1] - times[k];
+  return durations;
+}
 
 }  // namespace mocap
