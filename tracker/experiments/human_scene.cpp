@@ -32,6 +32,48 @@ BodyProportions proportionsOf(const SubjectJoints& j) {
   return p;
 }
 
+// Mean radii of the parts the three girths scale, in metres: the trunk's ellipsoids across their
+// up axis, and the arms' and legs' round pieces (upper arm and forearm, thigh and shin).
+struct PartRadii {
+  double trunk = 0, arms = 0, legs = 0;
+};
+
+PartRadii partRadii(const PosedSubject& subject) {
+  double sum[3] = {0, 0, 0};
+  int count[3] = {0, 0, 0};
+  for (const SubjectPrimitive& p : subject.primitives) {
+    const bool ellipsoid = p.kind == SubjectPrimitive::Kind::kEllipsoid;
+    if (ellipsoid && p.bone < 0) {  // the trunk's (garments are cones)
+      sum[0] += 0.5 * (p.linear.col(0).norm() + p.linear.col(1).norm());
+      ++count[0];
+      continue;
+    }
+    const int part =
+        p.bone == kRElbow || p.bone == kRWrist || p.bone == kLElbow || p.bone == kLWrist ? 1
+        : p.bone == kRKnee || p.bone == kRAnkle || p.bone == kLKnee || p.bone == kLAnkle ? 2
+                                                                                         : -1;
+    if (part < 0 || ellipsoid) continue;  // the calves' ellipsoids have no counterpart
+    sum[part] += 0.5 * (p.radius0 + p.radius1);
+    ++count[part];
+  }
+  return {sum[0] / count[0], sum[1] / count[1], sum[2] / count[2]};
+}
+
+PartRadii partRadii(const BodyModel& body) {
+  const auto mean = [&](std::initializer_list<const char*> names, bool ellipsoids) {
+    double sum = 0;
+    for (const char* name : names) {
+      const Shape& shape = body.segments.at(body.segmentIndex(name)).shape;
+      sum += ellipsoids ? 0.5 * (shape.radii.x() + shape.radii.y())
+                        : 0.5 * (shape.radius_start + shape.radius_end);
+    }
+    return sum / names.size();
+  };
+  return {mean({"pelvis", "chest"}, true),
+          mean({"r_upper_arm", "r_forearm", "l_upper_arm", "l_forearm"}, false),
+          mean({"r_thigh", "r_shin", "l_thigh", "l_shin"}, false)};
+}
+
 }  // namespace
 
 HumanScene::HumanScene(const BodyModel& model, const Rig& rig, const HumanSceneOptions& options,
@@ -173,7 +215,12 @@ std::optional<BodyProportions> HumanScene::subjectProportions(const BodyModel& s
   const BodyProportions body = proportionsOf(subjectJointsAt(shipped, shipped.neutralPose()));
   BodyProportions ratio;
   for (int k = 0; k < BodyProportions::kCount; ++k) ratio[k] = subject[k] / body[k];
-  ratio.girth = params_->girth;
+  PosedSubject standing;
+  subject_renderer_->subject().pose(subjectJointsAt(model_, model_.neutralPose()), standing);
+  const PartRadii drawn = partRadii(standing), shipped_radii = partRadii(shipped);
+  ratio.trunk_girth = drawn.trunk / shipped_radii.trunk;
+  ratio.arm_girth = drawn.arms / shipped_radii.arms;
+  ratio.leg_girth = drawn.legs / shipped_radii.legs;
   return ratio;
 }
 

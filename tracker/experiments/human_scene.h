@@ -53,8 +53,10 @@ class HumanScene {
   // The subject's build against `shipped` (the body model file the tracker's body is fitted from),
   // measured as BodyProportions are applied (proportionedBodyModel): legs and arms by the summed
   // bone lengths of both limbs, trunk by pelvis-neck, head by neck-head top, width by the hip plus
-  // shoulder spacings, each over the shipped body's at its neutral pose; girth is the subject's
-  // SubjectParams::girth (the shipped body being of average girth). Empty without a subject.
+  // shoulder spacings, each over the shipped body's at its neutral pose; each girth by the mean
+  // radius of its part's pieces as drawn standing (close clothes and sleeves included, skirts and
+  // coats not): the trunk's ellipsoids across, the upper arms' and forearms', the thighs' and
+  // shins', over the shipped body's. Empty without a subject.
   std::optional<BodyProportions> subjectProportions(const BodyModel& shipped) const;
   const SubjectParams* subjectParams() const;
 

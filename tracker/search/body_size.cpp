@@ -15,13 +15,15 @@
 namespace mocap {
 
 double& BodyProportions::operator[](int k) {
-  double* const factors[kCount] = {&legs, &arms, &trunk, &head, &width, &girth};
+  double* const factors[kCount] = {&legs,  &arms,        &trunk,     &head,
+                                   &width, &trunk_girth, &arm_girth, &leg_girth};
   if (k < 0 || k >= kCount) throw std::out_of_range("body proportion index");
   return *factors[k];
 }
 
 const char* BodyProportions::name(int k) {
-  static const char* const kNames[kCount] = {"legs", "arms", "trunk", "head", "width", "girth"};
+  static const char* const kNames[kCount] = {"legs",  "arms",        "trunk",     "head",
+                                             "width", "trunk_girth", "arm_girth", "leg_girth"};
   return kNames[k];
 }
 
@@ -61,12 +63,27 @@ BodyModel proportionedBodyModel(const BodyModel& model, const BodyProportions& p
     chain(side + "wrist", side + "hand", proportions.arms);
   }
   BodyModel fitted = fitModelToRestPoints(model, target);
-  for (Segment& segment : fitted.segments) {
-    Shape& shape = segment.shape;
-    shape.radius_start *= proportions.girth;
-    shape.radius_end *= proportions.girth;
-    shape.radii.x() *= proportions.girth;
-    shape.radii.y() *= proportions.girth;
+  std::vector<double> girth(fitted.segments.size(), proportions.trunk_girth);
+  // A limb: the segment carrying its first point and every segment below it.
+  auto limb = [&](const std::string& first_point, double factor) {
+    const int root = model.points[index(first_point)].segment;
+    for (std::size_t s = 0; s < girth.size(); ++s)
+      for (int a = static_cast<int>(s); a >= 0; a = fitted.segments[a].parent)
+        if (a == root) {
+          girth[s] = factor;
+          break;
+        }
+  };
+  for (const std::string side : {"l_", "r_"}) {
+    limb(side + "hip", proportions.leg_girth);
+    limb(side + "shoulder", proportions.arm_girth);
+  }
+  for (std::size_t s = 0; s < girth.size(); ++s) {
+    Shape& shape = fitted.segments[s].shape;
+    shape.radius_start *= girth[s];
+    shape.radius_end *= girth[s];
+    shape.radii.x() *= girth[s];
+    shape.radii.y() *= girth[s];
   }
   return fitted;
 }

@@ -30,16 +30,21 @@ struct BodyProportions {
   double trunk = 1;  // the hips' and shoulders' heights, the pelvis -> neck distance
   double head = 1;   // neck -> top of the head
   double width = 1;  // hip and shoulder widths
-  double girth = 1;  // every segment's thickness across its length
-  static constexpr int kCount = 6;
+  // Thickness across the length, by part: the trunk's and the head's, the arms' (hands too) and
+  // the legs' (feet too). Limbs vary apart from the trunk (a heavy build thickens the trunk most).
+  double trunk_girth = 1;
+  double arm_girth = 1;
+  double leg_girth = 1;
+  static constexpr int kCount = 8;
   double& operator[](int k);
   double operator[](int k) const { return const_cast<BodyProportions&>(*this)[k]; }
   static const char* name(int k);
 };
 
 // The model with those proportions: lengths by fitModelToRestPoints (tracker/motion/retarget.h) on
-// its own rest pose so changed, so the feet stay on the floor; girth on every cone's radii and on
-// the ellipsoids' semi-axes across the segment frame's Z (the trunk's and the head's up axis).
+// its own rest pose so changed, so the feet stay on the floor; each girth on its part's cone radii
+// and ellipsoid semi-axes across the segment frame's Z (the trunk's and the head's up axis), the
+// legs being the segments from those carrying the hip points down, the arms from the shoulders'.
 // Needs the human's 19 point names; throws std::runtime_error naming a missing one.
 BodyModel proportionedBodyModel(const BodyModel& model, const BodyProportions& proportions);
 

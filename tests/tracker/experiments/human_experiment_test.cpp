@@ -14,6 +14,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tracker/search/body_size.h"
 #include "tracker/sim/subject.h"
 
 namespace mocap {
@@ -242,7 +243,7 @@ TEST(HumanExperiment, TheTrackedBodyIsTheSubjectsTheFilesOrOneFittedToTheSubject
   EXPECT_LT(fitted["mpjpe_mm"].get<double>(), 0.5 * file["mpjpe_mm"].get<double>());
   EXPECT_LT(own["mpjpe_mm"].get<double>(), fitted["mpjpe_mm"].get<double>());
   const nlohmann::json& build = fitted["body_proportions"];
-  ASSERT_EQ(build.size(), 6u) << fitted.dump();
+  ASSERT_EQ(build.size(), static_cast<std::size_t>(BodyProportions::kCount)) << fitted.dump();
   EXPECT_LT(build["legs"].get<double>(), 1.0);  // the subject is smaller than the file's 1.75 m
   EXPECT_LT(build["arms"].get<double>(), 0.85);
   config.tracked_body = "mine";
