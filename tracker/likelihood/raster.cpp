@@ -31,17 +31,7 @@ ShapeRasterizer::ShapeRasterizer(int points_per_circle) {
   const int n = std::max(3, points_per_circle);
   // Radius of the regular n-gon whose area equals the circle's.
   const double scale = std::sqrt(2 * M_PI / (n * std::sin(2 * M_PI / n)));
-  // A cone's circles: the points across the view (0 and n/2, see outline) on the circle, so the
-  // width is exact; the others further out by k, so the area is the circle's too (a cone seen
-  // end-on), from (n - 4) k^2 + 4 k = 2 pi / sin(2 pi / n). Odd n: the equal-area polygon.
-  const double c = 2 * M_PI / std::sin(2 * M_PI / n);
-  const double k = n % 2    ? scale
-                   : n == 4 ? c / 4
-                            : (-4 + std::sqrt(16 + 4 * (n - 4) * c)) / (2 * (n - 4));
   for (int i = 0; i < n; ++i) {
-    const double across = n % 2 == 0 && (i == 0 || 2 * i == n) ? 1 : k;
-    cone_cos_.push_back(across * std::cos(2 * M_PI * i / n));
-    cone_sin_.push_back(across * std::sin(2 * M_PI * i / n));
     cos_.push_back(scale * std::cos(2 * M_PI * i / n));
     sin_.push_back(scale * std::sin(2 * M_PI * i / n));
   }
@@ -75,14 +65,9 @@ bool ShapeRasterizer::outline(const Shape& shape, const Eigen::Isometry3d& pose,
   };
   if (shape.type == ShapeType::kTruncatedCone) {
     const Eigen::Vector3d axis = rot * shape.axis;
-    const Eigen::Vector3d far_end = origin + axis * shape.length;
-    // The first circle point across the axis and the line of sight to the middle: that direction
-    // gives the cone its width in the image, so with points on the circle the width is exact
-    // whatever the orientation (an arbitrary phase made it 3 % narrow to 5 % wide at 8 points).
-    Eigen::Vector3d u = axis.cross(origin + 0.5 * shape.length * axis);
-    u = u.norm() > 1e-12 ? Eigen::Vector3d(u.normalized()) : axis.unitOrthogonal();
+    const Eigen::Vector3d u = axis.unitOrthogonal();
     const Eigen::Vector3d v = axis.cross(u);
-    const double *circle_cos = cone_cos_.data(), *circle_sin = cone_sin_.data();
+    const Eigen::Vector3d far_end = origin + axis * shape.length;
 #if defined(__SSE2__)
     if (pinhole) {
       // x and y in the two lanes, z alone: per coordinate the same products and sums as below
@@ -94,9 +79,9 @@ bool ShapeRasterizer::outline(const Shape& shape, const Eigen::Isometry3d& pose,
       const __m128d focal = _mm_set_pd(camera.fy, camera.fx);
       const __m128d principal = _mm_set_pd(camera.cy, camera.cx);
       for (int i = 0; i < n; ++i) {
-        const __m128d c = _mm_set1_pd(circle_cos[i]), s = _mm_set1_pd(circle_sin[i]);
+        const __m128d c = _mm_set1_pd(cos_[i]), s = _mm_set1_pd(sin_[i]);
         const __m128d dir_xy = _mm_add_pd(_mm_mul_pd(c, u_xy), _mm_mul_pd(s, v_xy));
-        const double dir_z = circle_cos[i] * u.z() + circle_sin[i] * v.z();
+        const double dir_z = cos_[i] * u.z() + sin_[i] * v.z();
         for (int end = 0; end < 2; ++end) {
           const double z = ends_z[end] + radii[end] * dir_z;
           if (z < CameraModel::kMinDepth) return false;
@@ -109,7 +94,7 @@ bool ShapeRasterizer::outline(const Shape& shape, const Eigen::Isometry3d& pose,
     }
 #endif
     for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3d dir = circle_cos[i] * u + circle_sin[i] * v;
+      const Eigen::Vector3d dir = cos_[i] * u + sin_[i] * v;
       if (!emit(origin + shape.radius_start * dir) || !emit(far_end + shape.radius_end * dir))
         return false;
     }

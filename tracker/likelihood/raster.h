@@ -36,9 +36,8 @@ struct Footprint {
 };
 
 // Turns shapes into footprints. Holds the per-thread scratch (outline points, hull): one per
-// worker. `points_per_circle` sets the outline tessellation. A cone's end circles are inscribed
-// polygons turned to keep its projected width exact; an ellipsoid's contour is replaced by the
-// polygon of equal area. Either way coarse outlines neither shrink nor grow the shape.
+// worker. `points_per_circle` sets the outline tessellation; each circle is replaced by the
+// polygon of equal area, so coarse outlines neither shrink nor grow the shape.
 class ShapeRasterizer {
  public:
   explicit ShapeRasterizer(int points_per_circle);
@@ -61,8 +60,7 @@ class ShapeRasterizer {
                        RowSpan* buffer);
   static Footprint trim(RowSpan* buffer, int y0, int first, int last, int xmin, int xmax);
 
-  std::vector<double> cos_, sin_;  // unit circle, area-matched radius folded in (ellipse contours)
-  std::vector<double> cone_cos_, cone_sin_;  // unit circle (cones: see outline)
+  std::vector<double> cos_, sin_;           // unit circle, area-matched radius folded in
   std::vector<Eigen::Vector2d> projected_;  // 2 points per circle point; the first count used
   int projected_count_ = 0;
   std::vector<Eigen::Vector2d> hull_;
