@@ -18,6 +18,7 @@ inline constexpr const char* kHumanUsage =
     "       [--model FILE.yaml] [--trace FILE.csv] [--overlay DIR]\n"
     "       [--reset-every N [--reset-to truth|nearest]] [--speed-scale K] [--skip-rate P]\n"
     "       [--subject-scale K] [--tracked-body truth|default|fit|drawn] [--fit-rounds N]\n"
+    "       [--limb-margin K]\n"
     "       [--lost-below FIT [--lost-after N]] [--challenge-every N]\n"
     "       [--dropout-at F --dropout-frames N]\n"
     "       [--scenario lab|product] [--subject-seed N] [--silhouettes true|extracted]\n"

@@ -187,7 +187,10 @@ TrackedBody fitTrackedBody(const HumanExperimentConfig& config, const HumanSubje
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!fit) throw std::runtime_error("--tracked-body fit: no subject found: " + why_not);
-  return {proportionedBodyModel(unfitted, fit->proportions), fit, seconds};
+  BodyProportions tracked = fit->proportions;
+  tracked.arm_girth *= config.limb_margin;
+  tracked.leg_girth *= config.limb_margin;
+  return {proportionedBodyModel(unfitted, tracked), fit, seconds};
 }
 
 TrackedBody trackedBodyFor(const HumanExperimentConfig& config, const HumanSubject& subject,
@@ -303,6 +306,7 @@ void describeOptionalFields(const HumanExperimentConfig& config, const HumanSubj
   if (tracked.fit) {
     out["body_scale"] = tracked.fit->scale;
     out["fit_rounds"] = config.fit_rounds;
+    if (config.limb_margin != 1) out["limb_margin"] = config.limb_margin;
     describeProportions(tracked.fit->proportions, "body_proportions", out);
     out["body_fit_evaluations"] = tracked.fit->evaluations;
     out["body_fit_seconds"] = tracked.fit_seconds;
@@ -472,6 +476,7 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   config.subject_scale = args.real("subject-scale", 1.0, 0.5, 2.0);
   config.tracked_body = args.text("tracked-body", config.tracked_body);
   config.fit_rounds = static_cast<int>(args.integer("fit-rounds", config.fit_rounds, 0, 10));
+  config.limb_margin = args.real("limb-margin", config.limb_margin, 0.5, 2.0);
   config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
   if (args.has("lost-below")) config.lost_below = args.real("lost-below", 0.0, 0.0, 0.99);
   config.lost_after = static_cast<int>(args.integer("lost-after", config.lost_after, 1, 1'000'000));

@@ -83,6 +83,7 @@ struct HumanExperimentConfig {
   // subject_proportions reports them: what a perfect fit of the six would give).
   std::string tracked_body = "truth";
   int fit_rounds = 1;  // --tracked-body fit: BodyFitOptions::proportion_rounds
+  double limb_margin = 1;  // --tracked-body fit: the fitted arm and leg girths times this, tracked
   // A live tracker that cannot keep up: each frame after the first is skipped (not tracked, not
   // scored) with this probability, from its own seeded stream, as mocapd drops the frame sets
   // that arrive while a step runs. The tracker's motion model still assumes one frame per step.
