@@ -80,7 +80,7 @@ struct HumanExperimentConfig {
   // shipped human a 1.75 m adult's), or "fit" (the model file fitted by fitBodyInPose to
   // kFitFrames frames of the subject in its fit_pose before the motion, turning a quarter turn),
   // or "drawn" (the model file's body with the drawn subject's own proportions, as
-  // subject_proportions reports them: what a perfect fit of the six would give).
+  // subject_proportions reports them: what a perfect fit of the proportions would give).
   std::string tracked_body = "truth";
   int fit_rounds = 1;  // --tracked-body fit: BodyFitOptions::proportion_rounds
   double limb_margin = 1;  // --tracked-body fit: the fitted arm and leg girths times this, tracked

@@ -256,8 +256,8 @@ TEST(HumanExperiment, TheTrackedBodyIsTheSubjectsTheFilesOrOneFittedToTheSubject
 }
 
 // --tracked-body drawn: the file's body with a drawn subject's own proportions (what a perfect
-// fit of the six would give). For a subject much smaller than the file's 1.75 m body it can pose
-// nearer the subject's joints (measured: 26 against 39 mm); it needs a drawn subject.
+// fit of the proportions would give). For a subject much smaller than the file's 1.75 m body it
+// can pose nearer the subject's joints (measured: 26 against 39 mm); it needs a drawn subject.
 TEST(HumanExperiment, TheDrawnBodyHasTheSubjectsOwnProportions) {
   REQUIRE_SHARED_FILE(kWalk);
   HumanExperimentConfig config = walk(3);
