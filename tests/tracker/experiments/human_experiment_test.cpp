@@ -246,6 +246,12 @@ TEST(HumanExperiment, TheTrackedBodyIsTheSubjectsTheFilesOrOneFittedToTheSubject
   ASSERT_EQ(build.size(), static_cast<std::size_t>(BodyProportions::kCount)) << fitted.dump();
   EXPECT_LT(build["legs"].get<double>(), 1.0);  // the subject is smaller than the file's 1.75 m
   EXPECT_LT(build["arms"].get<double>(), 0.85);
+  // --limb-margin: the same fit, tracked with thicker limbs, so another track.
+  config.limb_margin = 1.3;
+  const nlohmann::json wider = runHumanExperiment(config);
+  EXPECT_EQ(wider["limb_margin"], 1.3);
+  EXPECT_EQ(wider["body_proportions"], build);
+  EXPECT_NE(wider["mpjpe_mm"], fitted["mpjpe_mm"]);
   config.tracked_body = "mine";
   try {
     runHumanExperiment(config);
