@@ -2,7 +2,10 @@
 // moving person with a cast shadow (the full per-frame path: gain, classification, shadows, cleanup,
 // adaptation and the bit-packed SilhouetteMask). Prints JSON: the median, mean and spread of 5
 // runs of each, unless other benchmark flags are given.
+// --frames=N runs each once over exactly N frames instead: instruction counts (callgrind) that do
+// not depend on how fast the run was.
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -52,9 +55,6 @@ void extractSilhouette(benchmark::State& state, bool color) {
       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
-BENCHMARK_CAPTURE(extractSilhouette, bgr_780x580, true)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(extractSilhouette, gray_780x580, false)->Unit(benchmark::kMillisecond);
-
 }  // namespace
 }  // namespace mocap
 
@@ -66,7 +66,21 @@ int main(int argc, char** argv) {
                             "--benchmark_format=json"};
   std::vector<char*> args{argv[0]};
   for (std::string& flag : defaults) args.push_back(flag.data());
-  args.insert(args.end(), argv + 1, argv + argc);
+  long frames = 0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view flag = argv[i], frames_flag = "--frames=";
+    if (flag.starts_with(frames_flag))
+      frames = std::stol(std::string(flag.substr(frames_flag.size())));
+    else
+      args.push_back(argv[i]);
+  }
+  for (const bool color : {true, false}) {
+    auto* run = benchmark::RegisterBenchmark(
+        color ? "extractSilhouette/bgr_780x580" : "extractSilhouette/gray_780x580",
+        mocap::extractSilhouette, color);
+    run->Unit(benchmark::kMillisecond);
+    if (frames > 0) run->Iterations(frames)->Repetitions(1);
+  }
   int count = static_cast<int>(args.size());
   benchmark::Initialize(&count, args.data());
   benchmark::RunSpecifiedBenchmarks();

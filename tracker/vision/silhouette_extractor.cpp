@@ -114,6 +114,7 @@ float kthSmallest(const std::vector<float>& values, std::size_t k, std::vector<u
 // Rows of the ratio ring: the plane fit reads three floats past the last column.
 constexpr int kRatioRing = 5, kRatioPadding = 4;
 constexpr int kRatioBlock = 16;  // pixels per block of ratios computed at once
+constexpr int kCacheLine = 64;   // bytes, the unit of prefetching
 
 }  // namespace
 
@@ -210,7 +211,10 @@ void SilhouetteExtractor::rebuildBounds() {
   //   keeps).
   const cv::Mat& mean = mean_view_;
   const int channels = mean.channels(), step = options_.gain_sample_step;
-  inverse_mean_.create(mean.size(), CV_32FC1);
+  if (channels == 1)
+    inverse_mean_.create(mean.size(), CV_32FC1);
+  else
+    grouped_bgr_.create(mean.rows, silhouette_kernels::groupedColourFloats(mean.cols), CV_32FC1);
   bound_scratch_.create(mean.size(), CV_32FC1);
   gain_expected_.create((mean.rows - step / 2 + step - 1) / step,
                         (mean.cols - step / 2 + step - 1) / step, CV_32FC1);
@@ -219,17 +223,25 @@ void SilhouetteExtractor::rebuildBounds() {
     silhouette_kernels::boundsRow(mu, margin_.ptr<float>(y), mean.cols * channels,
                                   lower_.ptr<uint8_t>(y), upper_.ptr<uint8_t>(y));
     const float* sigma = pixel_sigma_.ptr<float>(y);
-    float* inverse = inverse_mean_.ptr<float>(y);
     float* noise = bound_scratch_.ptr<float>(y);
     if (channels == 1) {
+      float* inverse = inverse_mean_.ptr<float>(y);
       for (int x = 0; x < mean.cols; ++x) {
         inverse[x] = 1.0f / (mu[x] + 1.0f);  // as cv::divide: no case for a zero
         const float relative = sigma[x] * inverse[x];
         noise[x] = relative * relative;
       }
     } else {
-      silhouette_kernels::inverseEnergyRow(mu, mean.cols, inverse);
-      for (int x = 0; x < mean.cols; ++x) noise[x] = sigma[x] * sigma[x] * inverse[x];
+      float* grouped = grouped_bgr_.ptr<float>(y);
+      silhouette_kernels::groupColourRow(mu, mean.cols, grouped);
+      int x = 0;
+      for (; x + 4 <= mean.cols; x += 4) {  // a group's inverse energies are its last vector
+        const cv::v_float32x4 deviation = cv::v_load(sigma + x);
+        const float* inverse = grouped + silhouette_kernels::kColourGroupFloats * (x / 4) + 12;
+        cv::v_store(noise + x, deviation * deviation * cv::v_load(inverse));
+      }
+      for (; x < mean.cols; ++x)
+        noise[x] = sigma[x] * sigma[x] * silhouette_kernels::groupedColourAt(grouped, x, 3);
     }
     if (y < step / 2 || (y - step / 2) % step != 0) continue;
     float* expected = gain_expected_.ptr<float>((y - step / 2) / step);
@@ -240,7 +252,7 @@ void SilhouetteExtractor::rebuildBounds() {
       expected[j] = sum;
     }
   }
-  cv::boxFilter(bound_scratch_, ratio_noise_, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+  silhouette_kernels::patchSums5x5(bound_scratch_, ratio_noise_, scratch_.patch_sums);
 }
 
 void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
@@ -252,8 +264,15 @@ void SilhouetteExtractor::estimateGain(const cv::Mat& frame) {
   const cv::Mat previous = foreground_(roi_);
   std::vector<float>& samples = scratch_.gain_samples;
   samples.clear();
+  // The frame is new to the caches and its sampled rows lie far apart, too far for the hardware's
+  // prefetch: each row asks for the next one's cache lines, or every sample waits on memory.
+  const int row_bytes = mean.cols * channels;
   for (int y = step / 2, i = 0; y < mean.rows; y += step, ++i) {
     const uint8_t* in = frame.ptr<uint8_t>(y);
+    if (y + step < mean.rows) {
+      const uint8_t* next = frame.ptr<uint8_t>(y + step);
+      for (int at = 0; at < row_bytes; at += kCacheLine) __builtin_prefetch(next + at);
+    }
     const float* expected = gain_expected_.ptr<float>(i);
     const uint8_t* fg = previous.ptr<uint8_t>(y);
     const uint8_t* sh = shadow_.ptr<uint8_t>(y);
@@ -310,15 +329,18 @@ void SilhouetteExtractor::computeRatios(int y, int from, int to) {
   float* ratio = scratch_.ratio_rows.ptr<float>(slot) + from;
   float* ratio_squared = scratch_.ratio_squares.ptr<float>(slot) + from;
   uint8_t* in_band = scratch_.band_rows.ptr<uint8_t>(slot) + from;
-  const float* inverse = inverse_mean_.ptr<float>(y) + from;
-  if (channels == 1)
-    silhouette_kernels::ratioRow(in, scratch_.scale, inverse, to - from, shadow_band_, ratio,
-                                 ratio_squared, in_band);
-  else
-    silhouette_kernels::colorRatioRow(in, scratch_.scale, mean_view_.ptr<float>(y) + 3 * from,
-                                      inverse, pixel_sigma_.ptr<float>(y) + from,
+  if (channels == 1) {
+    silhouette_kernels::ratioRow(in, scratch_.scale, inverse_mean_.ptr<float>(y) + from, to - from,
+                                 shadow_band_, ratio, ratio_squared, in_band);
+  } else {
+    static_assert(kRatioBlock % 4 == 0, "a block starts a group of groupColourRow");
+    const float* grouped =
+        grouped_bgr_.ptr<float>(y) + silhouette_kernels::kColourGroupFloats * (from / 4);
+    silhouette_kernels::colorRatioRow(in, scratch_.scale, grouped,
+                                      pixel_sigma_.ptr<float>(y) + from,
                                       scratch_.unchanged.ptr<uint8_t>(y) + from, to - from,
                                       shadow_band_, ratio, ratio_squared, in_band);
+  }
 }
 
 void SilhouetteExtractor::classifyRow(int y) {
@@ -349,18 +371,29 @@ void SilhouetteExtractor::classifyRow(int y) {
   std::vector<int>& fit = scratch_.fit_columns;
   fit.clear();
   // By blocks of kRatioBlock pixels: a changed pixel is a candidate unless it takes the fit; the
-  // ratios (and in_band) of a block are computed if one of its changed pixels may take it.
+  // ratios (and in_band) of a block are computed if one of its changed pixels may take it, a run of
+  // such blocks at a time (calls block by block cost a third of the work).
   static_assert(kRatioBlock == 16, "one vector of bytes per block");
   const cv::v_uint8x16 zero = cv::v_setzero_u8();
+  const uint8_t* inner = inner_columns_.ptr<uint8_t>();
+  const auto mayFit = [&](int at) {
+    return (cv::v_load(same + at) == zero) & cv::v_load(inner + at);
+  };
+  int ratios_end = 0;  // the ratios of this row's blocks below it are computed
   int column = first_changed - first_changed % kRatioBlock;
   for (; column + kRatioBlock <= cols; column += kRatioBlock) {
     const cv::v_uint8x16 changed = cv::v_load(same + column) == zero;
     if (!cv::v_check_any(changed)) continue;
     cv::v_uint8x16 fits = zero;
     if (fits_row) {
-      const cv::v_uint8x16 may_fit = changed & cv::v_load(inner_columns_.ptr<uint8_t>() + column);
+      const cv::v_uint8x16 may_fit = changed & cv::v_load(inner + column);
       if (cv::v_check_any(may_fit)) {
-        ensureRatios(y, y, column, column + kRatioBlock);
+        if (column >= ratios_end) {
+          ratios_end = column + kRatioBlock;
+          while (ratios_end + kRatioBlock <= cols && cv::v_check_any(mayFit(ratios_end)))
+            ratios_end += kRatioBlock;
+          ensureRatios(y, y, column, ratios_end);
+        }
         fits = may_fit & cv::v_load(in_band + column);
       }
     }
@@ -370,7 +403,7 @@ void SilhouetteExtractor::classifyRow(int y) {
   }
   for (; column < cols; ++column) {  // the last partial block
     if (same[column]) continue;
-    const bool takes_fit = fits_row && inner_columns_.at<uint8_t>(column);
+    const bool takes_fit = fits_row && inner[column];
     if (takes_fit) ensureRatios(y, y, column, column + 1);
     if (takes_fit && in_band[column])
       fit.push_back(column);
@@ -390,12 +423,12 @@ void SilhouetteExtractor::classifyRow(int y) {
   int ready_end = 0;  // ratios of all five rows are computed for the columns below it
   for (std::size_t i = 0; i < fit.size();) {
     const int x0 = fit[i];
-    // fitPlanes reads two columns left of a group of four and two right of it: for the groups that
-    // start within a block's width from here, that is this range (what lies between two of them is
-    // too narrow to hold a block none of them reads).
+    // fitPlanes reads two columns left of a group of four and two right of it: for a run of fitted
+    // pixels each within a block's width of the one before, that is this range (what lies between
+    // two of them is too narrow to hold a block none of their groups reads).
     if (x0 + 6 > ready_end) {
       std::size_t reach = i;
-      while (reach + 1 < fit.size() && fit[reach + 1] < x0 + kRatioBlock) ++reach;
+      while (reach + 1 < fit.size() && fit[reach + 1] < fit[reach] + kRatioBlock) ++reach;
       ensureRatios(y - 2, y + 2, x0 - 2, fit[reach] + 6);
       ready_end = ((fit[reach] + 5) / kRatioBlock + 1) * kRatioBlock;
     }

@@ -114,6 +114,7 @@ class SilhouetteExtractor {
     std::vector<cv::Vec4i> hierarchy;
     std::vector<float> gain_samples;
     std::vector<uint32_t> histogram;  // of the gain samples' bits, to find their median
+    std::vector<double> patch_sums;   // patchSums5x5's buffers
   };
 
   void rebuildBounds();
@@ -133,7 +134,8 @@ class SilhouetteExtractor {
   cv::Mat mean_view_;      // the background's mean in the region of interest (shares its data)
   cv::Mat margin_;         // per channel: max(threshold_sigmas * stddev, min_difference)
   cv::Mat pixel_sigma_;    // CV_32FC1: mean stddev over channels
-  cv::Mat inverse_mean_;   // gray: 1 / (mean + 1); BGR: 1 / (|mean|^2 + 1)
+  cv::Mat inverse_mean_;   // gray: 1 / (mean + 1)
+  cv::Mat grouped_bgr_;    // BGR: per row, the mean and 1 / (|mean|^2 + 1) (groupColourRow)
   cv::Mat ratio_noise_;    // sum over each 5x5 patch of the ratio's noise variance
   cv::Mat texture_;        // the background's texture energy over each 5x5 patch / noise
   cv::Mat inner_columns_;  // one row: 255 at the columns whose 5x5 patch lies in the region

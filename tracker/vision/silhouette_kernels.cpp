@@ -11,6 +11,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/core/hal/intrin.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace mocap::silhouette_kernels {
 
@@ -163,17 +164,23 @@ void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower
   }
 }
 
-void inverseEnergyRow(const float* bgr, int cols, float* inverse) {
+void groupColourRow(const float* bgr, int cols, float* grouped) {
   int x = 0;
   const v_float32x4 one = cv::v_setall_f32(1.0f);
-  for (; x + 4 <= cols; x += 4) {
+  for (; x + 4 <= cols; x += 4, grouped += kColourGroupFloats) {
     v_float32x4 b, g, r;
     cv::v_load_deinterleave(bgr + 3 * x, b, g, r);
-    cv::v_store(inverse + x, one / (b * b + g * g + r * r + one));
+    cv::v_store(grouped, b);
+    cv::v_store(grouped + 4, g);
+    cv::v_store(grouped + 8, r);
+    cv::v_store(grouped + 12, one / (b * b + g * g + r * r + one));
   }
-  for (; x < cols; ++x) {
+  if (x == cols) return;
+  std::fill(grouped, grouped + kColourGroupFloats, 0.0f);
+  for (int lane = 0; x < cols; ++x, ++lane) {
     const float* mu = bgr + 3 * x;
-    inverse[x] = 1.0f / (mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2] + 1.0f);
+    for (int c = 0; c < 3; ++c) grouped[4 * c + lane] = mu[c];
+    grouped[12 + lane] = 1.0f / (mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2] + 1.0f);
   }
 }
 
@@ -242,9 +249,9 @@ void ratioRow(const uint8_t* in, float scale, const float* inverse_mean, int col
   }
 }
 
-void colorRatioRow(const uint8_t* in, float scale, const float* mean, const float* inverse_energy,
-                   const float* sigma, const uint8_t* unchanged, int cols, const ShadowBand& band,
-                   float* ratio, float* ratio_squared, uint8_t* in_band) {
+void colorRatioRow(const uint8_t* in, float scale, const float* grouped, const float* sigma,
+                   const uint8_t* unchanged, int cols, const ShadowBand& band, float* ratio,
+                   float* ratio_squared, uint8_t* in_band) {
   const v_float32x4 vscale = cv::v_setall_f32(scale), one = cv::v_setall_f32(1.0f),
                     min_ratio = cv::v_setall_f32(band.min_ratio),
                     max_ratio = cv::v_setall_f32(band.max_ratio),
@@ -272,12 +279,13 @@ void colorRatioRow(const uint8_t* in, float scale, const float* mean, const floa
       cv::v_int32x4 inside[4];
       for (int k = 0; k < 4; ++k) {
         const int at = x + 4 * k;
+        const float* group = grouped + kColourGroupFloats * (at / 4);
         const v_float32x4 nb = normalizedFloats(b[k], vscale), ng = normalizedFloats(g[k], vscale),
                           nr = normalizedFloats(r[k], vscale);
-        v_float32x4 mb, mg, mr;
-        cv::v_load_deinterleave(mean + 3 * at, mb, mg, mr);
+        const v_float32x4 mb = cv::v_load(group), mg = cv::v_load(group + 4),
+                          mr = cv::v_load(group + 8);
         const v_float32x4 dot = nb * mb + ng * mg + nr * mr;
-        const v_float32x4 q = dot * cv::v_load(inverse_energy + at);
+        const v_float32x4 q = dot * cv::v_load(group + 12);
         cv::v_store(ratio + at, q);
         cv::v_store(ratio_squared + at, q * q);
         inside[k] = cv::v_reinterpret_as_s32((q >= min_ratio) & (q <= max_ratio)) & changed[k];
@@ -296,15 +304,94 @@ void colorRatioRow(const uint8_t* in, float scale, const float* mean, const floa
     }
   }
   for (; x < cols; ++x) {
-    float pixel[3];
-    for (int c = 0; c < 3; ++c) pixel[c] = cv::saturate_cast<uint8_t>(in[3 * x + c] * scale);
-    const float* mu = mean + 3 * x;
-    ratio[x] = (pixel[0] * mu[0] + pixel[1] * mu[1] + pixel[2] * mu[2]) * inverse_energy[x];
+    float pixel[3], mu[3];
+    for (int c = 0; c < 3; ++c) {
+      pixel[c] = cv::saturate_cast<uint8_t>(in[3 * x + c] * scale);
+      mu[c] = groupedColourAt(grouped, x, c);
+    }
+    ratio[x] =
+        (pixel[0] * mu[0] + pixel[1] * mu[1] + pixel[2] * mu[2]) * groupedColourAt(grouped, x, 3);
     ratio_squared[x] = ratio[x] * ratio[x];
     in_band[x] = !unchanged[x] && ratio[x] >= band.min_ratio && ratio[x] <= band.max_ratio &&
                          keepsColour(pixel, mu, sigma[x], band)
                      ? 255
                      : 0;
+  }
+}
+
+namespace {
+
+// Sums of five neighbours along one row of floats, the edges reflected, in double.
+void rowSums5(const float* in, int cols, double* sums) {
+  const auto at = [&](int x) {
+    return static_cast<double>(in[x < 0 ? -x : x >= cols ? 2 * cols - 2 - x : x]);
+  };
+  const auto edge = [&](int x) { sums[x] = at(x - 2) + at(x - 1) + at(x) + at(x + 1) + at(x + 2); };
+  edge(0);
+  edge(1);
+  int x = 2;
+#if CV_SIMD128_64F  // not on 32-bit ARM: the plain loop below does all pixels there
+  for (; x + 4 <= cols - 2; x += 4) {  // four pixels: two vectors of two doubles
+    const v_float32x4 first = cv::v_load(in + x - 2);
+    cv::v_float64x2 low = cv::v_cvt_f64(first), high = cv::v_cvt_f64_high(first);
+    for (int dx = -1; dx <= 2; ++dx) {
+      const v_float32x4 values = cv::v_load(in + x + dx);
+      low = low + cv::v_cvt_f64(values);
+      high = high + cv::v_cvt_f64_high(values);
+    }
+    cv::v_store(sums + x, low);
+    cv::v_store(sums + x + 2, high);
+  }
+#endif
+  for (; x < cols; ++x) edge(x);
+}
+
+}  // namespace
+
+void patchSums5x5(const cv::Mat& src, cv::Mat& dst, std::vector<double>& row_sums) {
+  CV_Assert(src.type() == CV_32FC1);
+  const int rows = src.rows, cols = src.cols;
+  if (rows < 5 || cols < 5) {
+    cv::boxFilter(src, dst, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+    return;
+  }
+  dst.create(src.size(), CV_32FC1);
+  // Five rows of row sums (row r in slot (r + 5) % 5, from r = -2) and the running column sums.
+  row_sums.resize(static_cast<std::size_t>(6) * cols);
+  const auto slot = [&](int r) {
+    return row_sums.data() + static_cast<std::ptrdiff_t>((r + 5) % 5) * cols;
+  };
+  const auto rowSums = [&](int r) {
+    const int source = r < 0 ? -r : r >= rows ? 2 * rows - 2 - r : r;
+    rowSums5(src.ptr<float>(source), cols, slot(r));
+  };
+  double* total = row_sums.data() + static_cast<std::ptrdiff_t>(5) * cols;
+  std::fill(total, total + cols, 0.0);
+  for (int r = -2; r <= 1; ++r) {
+    rowSums(r);
+    const double* add = slot(r);
+    for (int x = 0; x < cols; ++x) total[x] += add[x];
+  }
+  for (int y = 0; y < rows; ++y) {
+    rowSums(y + 2);
+    const double* add = slot(y + 2);
+    const double* drop = slot(y - 2);
+    float* out = dst.ptr<float>(y);
+    int x = 0;
+#if CV_SIMD128_64F
+    for (; x + 4 <= cols; x += 4) {
+      const cv::v_float64x2 low = cv::v_load(total + x) + cv::v_load(add + x);
+      const cv::v_float64x2 high = cv::v_load(total + x + 2) + cv::v_load(add + x + 2);
+      cv::v_store(out + x, cv::v_cvt_f32(low, high));
+      cv::v_store(total + x, low - cv::v_load(drop + x));
+      cv::v_store(total + x + 2, high - cv::v_load(drop + x + 2));
+    }
+#endif
+    for (; x < cols; ++x) {
+      const double sum = total[x] + add[x];
+      out[x] = static_cast<float>(sum);
+      total[x] = sum - drop[x];
+    }
   }
 }
 

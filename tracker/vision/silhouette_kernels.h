@@ -25,8 +25,19 @@ void testRow(const uint8_t* in, const uint8_t* lower, const uint8_t* upper, int 
 // values (cv::subtract or cv::add, then convertTo CV_8U).
 void boundsRow(const float* mean, const float* margin, int count, uint8_t* lower, uint8_t* upper);
 
-// Per pixel of `cols` BGR floats: 1 / (b^2 + g^2 + r^2 + 1), summed in that order as a plain loop.
-void inverseEnergyRow(const float* bgr, int cols, float* inverse);
+// The background's colour as colorRatioRow reads it: per group of four pixels (from the first),
+// their blue, green and red means and their inverse energy 1 / (b^2 + g^2 + r^2 + 1) (summed in
+// that order, as a plain loop), four floats each. A group is one cache line and each quantity one
+// vector: no shuffles, one line to load per four pixels. The floats of a partial last group's
+// missing pixels are zero.
+constexpr int kColourGroupFloats = 16;  // per group of four pixels
+inline int groupedColourFloats(int cols) { return kColourGroupFloats * ((cols + 3) / 4); }
+// Of pixel x: quantity 0, 1, 2 (the blue, green, red mean) or 3 (the inverse energy).
+inline float groupedColourAt(const float* grouped, int x, int quantity) {
+  return grouped[kColourGroupFloats * (x / 4) + 4 * quantity + x % 4];
+}
+// `cols` BGR floats into groupedColourFloats(cols) floats.
+void groupColourRow(const float* bgr, int cols, float* grouped);
 
 // Which pixels may be shadows before any plane fit: those whose own ratio frame / background lies
 // in [min_ratio, max_ratio] and, in colour, that keep the background's colour.
@@ -42,16 +53,16 @@ void ratioRow(const uint8_t* in, float scale, const float* inverse_mean, int col
 
 // The colour shadow test's ratio, from the frame's BGR bytes `in` normalized as normalizeRow does
 // (b, g, r): the frame's component along the background colour over the background's, ratio = (b *
-// mb + g * mg + r * mr) * inverse_energy, where `mean` holds the background's BGR floats and
-// inverse_energy 1 / (mb^2 + mg^2 + mr^2 + 1); and its square. The sums run in that order, as a
-// plain loop does. in_band = 255 where the pixel changed (unchanged is 0), its ratio lies in the
-// band and it keeps the background's colour, else 0: with c = (b * mb + g * mg + r * mr) / (mb^2 +
-// mg^2 + mr^2 + 1), |pixel - c * mean|^2 <= (chroma_sigmas * sigma + chroma_ratio * c * |mean|)^2,
-// each operation that of the plain scalar expression, in its order (and only computed for the
-// pixels it decides).
-void colorRatioRow(const uint8_t* in, float scale, const float* mean, const float* inverse_energy,
-                   const float* sigma, const uint8_t* unchanged, int cols, const ShadowBand& band,
-                   float* ratio, float* ratio_squared, uint8_t* in_band);
+// mb + g * mg + r * mr) * inverse_energy, where `grouped` holds the background's means mb, mg, mr
+// and inverse_energy 1 / (mb^2 + mg^2 + mr^2 + 1) as groupColourRow gives them (its first pixel
+// starting a group); and its square. The sums run in that order, as a plain loop does. in_band =
+// 255 where the pixel changed (unchanged is 0), its ratio lies in the band and it keeps the
+// background's colour, else 0: with c = (b * mb + g * mg + r * mr) / (mb^2 + mg^2 + mr^2 + 1),
+// |pixel - c * mean|^2 <= (chroma_sigmas * sigma + chroma_ratio * c * |mean|)^2, each operation
+// that of the plain scalar expression, in its order (and only computed for the pixels it decides).
+void colorRatioRow(const uint8_t* in, float scale, const float* grouped, const float* sigma,
+                   const uint8_t* unchanged, int cols, const ShadowBand& band, float* ratio,
+                   float* ratio_squared, uint8_t* in_band);
 
 // The least-squares plane of the ratio over the 5x5 patches centred on pixels x0 .. x0+3 of the
 // middle row: `rows` and `squares` point at the five rows' ratios and squared ratios, readable from
@@ -59,6 +70,14 @@ void colorRatioRow(const uint8_t* in, float scale, const float* mean, const floa
 // leaves; the summation order is that of a plain loop over dy then dx, lane by lane.
 void fitPlanes(const float* const rows[5], const float* const squares[5], int x0, float mean[4],
                float residual[4]);
+
+// The sum over each 5x5 patch of a one-channel float image, equal to cv::boxFilter(src, dst,
+// CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false) with its default border (reflected, the edge
+// pixel not repeated): in double, each row's five neighbours summed left to right, then per column
+// a running sum down the image that adds the row sums two rows below a pixel, is rounded to float
+// as its output, and drops the row sums two rows above it. `row_sums` keeps its buffers between
+// calls. Images under 5 pixels wide or high go to cv::boxFilter.
+void patchSums5x5(const cv::Mat& src, cv::Mat& dst, std::vector<double>& row_sums);
 
 // A binary image, one bit per pixel (bit x % 64 of word x / 64 of its row), for the morphology.
 // Every set bit lies in rows [top, bottom) and words [first_word, end_word) (the box); the bits

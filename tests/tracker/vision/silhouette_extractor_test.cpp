@@ -429,7 +429,7 @@ TEST(SilhouetteKernels, RatioRowsAreOfNormalizeRow) {
       }
 
       cv::Mat mean(1, cols, CV_32FC3), bgr(1, cols, CV_8UC3), sigma(1, cols, CV_32FC1),
-          unchanged(1, cols, CV_8UC1), energy(1, cols, CV_32FC1);
+          unchanged(1, cols, CV_8UC1);
       rng.fill(mean, cv::RNG::UNIFORM, 20, 230);
       rng.fill(bgr, cv::RNG::UNIFORM, 0, 256);
       rng.fill(sigma, cv::RNG::UNIFORM, 1, 4);
@@ -444,18 +444,24 @@ TEST(SilhouetteKernels, RatioRowsAreOfNormalizeRow) {
       cv::Mat normalized_bgr(1, cols, CV_8UC3);
       silhouette_kernels::normalizeRow(bgr.ptr<uint8_t>(), 3 * cols, scale,
                                        normalized_bgr.ptr<uint8_t>());
-      silhouette_kernels::inverseEnergyRow(mean.ptr<float>(), cols, energy.ptr<float>());
-      silhouette_kernels::colorRatioRow(
-          bgr.ptr<uint8_t>(), scale, mean.ptr<float>(), energy.ptr<float>(), sigma.ptr<float>(),
-          unchanged.ptr<uint8_t>(), cols, band, ratio.data(), squared.data(), in_band.data());
+      std::vector<float> grouped(
+          static_cast<std::size_t>(silhouette_kernels::groupedColourFloats(cols)), -1.0f);
+      silhouette_kernels::groupColourRow(mean.ptr<float>(), cols, grouped.data());
+      silhouette_kernels::colorRatioRow(bgr.ptr<uint8_t>(), scale, grouped.data(),
+                                        sigma.ptr<float>(), unchanged.ptr<uint8_t>(), cols, band,
+                                        ratio.data(), squared.data(), in_band.data());
       int kept = 0;
       for (int x = 0; x < cols; ++x) {
         const cv::Vec3b in = normalized_bgr.at<cv::Vec3b>(x);
         const cv::Vec3f mu = mean.at<cv::Vec3f>(x);
         const float b = in[0], g = in[1], r = in[2];
-        const float expected = (b * mu[0] + g * mu[1] + r * mu[2]) * energy.at<float>(x);
-        // The colour test as first written (SilhouetteExtractor::keepsBackgroundColor).
         const float total = mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2] + 1.0f;
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(silhouette_kernels::groupedColourAt(grouped.data(), x, c), mu[c]);
+        const float inverse_energy = 1.0f / total;
+        ASSERT_EQ(silhouette_kernels::groupedColourAt(grouped.data(), x, 3), inverse_energy);
+        const float expected = (b * mu[0] + g * mu[1] + r * mu[2]) * inverse_energy;
+        // The colour test as first written (SilhouetteExtractor::keepsBackgroundColor).
         const float own = (b * mu[0] + g * mu[1] + r * mu[2]) / total;
         const float db = b - own * mu[0], dg = g - own * mu[1], dr = r - own * mu[2];
         const float tolerance =
@@ -471,6 +477,24 @@ TEST(SilhouetteKernels, RatioRowsAreOfNormalizeRow) {
         EXPECT_GT(kept, 0);  // the test saw the colour test pass
       }
     }
+}
+
+// patchSums5x5 gives cv::boxFilter's unnormalized 5x5 sums bit for bit, borders included. The
+// values span many binary orders of magnitude, so that a different order of the double sums would
+// round differently.
+TEST(SilhouetteKernels, PatchSumsAreBoxFilter) {
+  cv::RNG rng(9);
+  std::vector<double> row_sums;
+  for (const cv::Size size : {cv::Size(5, 5), cv::Size(6, 9), cv::Size(4, 7), cv::Size(37, 23),
+                              cv::Size(780, 61), cv::Size(2, 2)}) {
+    cv::Mat exponent(size, CV_32FC1), src, expected, sums;
+    rng.fill(exponent, cv::RNG::UNIFORM, -30.0, 30.0);
+    cv::exp(exponent, src);
+    cv::boxFilter(src, expected, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false);
+    silhouette_kernels::patchSums5x5(src, sums, row_sums);
+    ASSERT_EQ(sums.size(), size);
+    EXPECT_TRUE(identical(sums, expected)) << size;
+  }
 }
 
 // Counts OpenCV's parallel loops and runs each on the calling thread.
