@@ -155,8 +155,9 @@ class ConfigParser : public ConfigReader {
   // The keys of a `tracker:` map, over the settings in `t`: the daemon's own, then the filter's
   // (their table, tracker/filters/filter_options.h).
   void trackerKeys(const YAML::Node& tracker, TrackerSettings& t) const {
-    std::set<std::string> keys = {"method", "threads", "dofs", "start", "lost_below", "lost_after",
-                                  "challenge_every"};
+    std::set<std::string> keys = {"method",          "threads",          "dofs",
+                                  "start",           "lost_below",       "lost_after",
+                                  "challenge_every", "trial_drop_margin"};
     for (const FilterOptionKey& option : filterOptionKeys()) keys.insert(option.key);
     onlyKeys(tracker, "tracker", keys);
     if (tracker["method"]) {
@@ -195,6 +196,9 @@ class ConfigParser : public ConfigReader {
     if (tracker["challenge_every"])
       t.challenge_every =
           integer(tracker["challenge_every"], "tracker.challenge_every", 0, 1'000'000);
+    if (tracker["trial_drop_margin"])
+      t.trial_drop_margin =
+          number(tracker["trial_drop_margin"], "tracker.trial_drop_margin", 0, 1e9);
   }
 
   // `web: {listen: HOST:PORT, enabled: BOOL}`.
@@ -546,7 +550,8 @@ std::vector<std::pair<std::string, std::string>> TrackerSettings::keyValues() co
                            {"start", start},
                            {"lost_below", shortestText(lost_below)},
                            {"lost_after", std::to_string(lost_after)},
-                           {"challenge_every", std::to_string(challenge_every)}});
+                           {"challenge_every", std::to_string(challenge_every)},
+                           {"trial_drop_margin", shortestText(trial_drop_margin)}});
   return keys;
 }
 

@@ -15,6 +15,7 @@
 #include "server/vmc_target.h"
 #include "tracker/filters/filter.h"
 #include "tracker/motion/bvh.h"
+#include "tracker/search/acquire.h"
 
 namespace mocap {
 
@@ -48,8 +49,11 @@ struct TrackerSettings {
   double lost_below = 0;
   int lost_after = 5;
   // Every so many frame sets, the subject is found again and the hypotheses tried against the
-  // track (AcquiringOptions::challenge_every); 0: never.
-  int challenge_every = 0;
+  // track (AcquiringOptions::challenge_every); 0: never. Only when the tracker finds the subject
+  // itself (`start` above), not from the fake scene's true first pose.
+  int challenge_every = AcquiringOptions{}.challenge_every;
+  // Hypotheses this far behind the best leave a trial (AcquiringOptions::trial_drop_margin).
+  double trial_drop_margin = AcquiringOptions{}.trial_drop_margin;
 
   // The defaults when the tracked body is a person (body_model: builtin:human, a model file with
   // `kind: person`, or a scene_motion): humanFilterDefaults() at kHumanEvaluations. Keys under

@@ -53,6 +53,7 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
                 cameras_.empty() ? 0.0 : cameras_.front().config.fps, recording_),
       backgrounds_(config_, cameras_, replay_, std::move(inputs.ground_truth), recording_),
       can_acquire_(canAcquire(model)),
+      finds_subject_(inputs.acquire),
       kinematics_(model),
       reference_kinematics_(reference_model_ ? *reference_model_ : model) {
   if (cameras_.empty()) throw std::invalid_argument("no cameras");
@@ -65,7 +66,7 @@ Pipeline::Pipeline(const ServerConfig& config, const BodyModel& model, const Rig
   pool_ = std::make_unique<WorkerPool>(config.tracker.threads);
   body_ = body_fit_.appliedBody();
   makeTrackerFilter(false);
-  if (inputs.acquire) {
+  if (finds_subject_) {
     if (!acquiring_) throw std::invalid_argument("tracker.start: the body's root cannot be placed");
     tracking_ = false;
   } else {
@@ -127,7 +128,10 @@ void Pipeline::makeTrackerFilter(bool in_fit_pose) {
     AcquiringOptions acquiring_options;
     acquiring_options.lost_below = config_.tracker.lost_below;
     acquiring_options.lost_after = config_.tracker.lost_after;
-    acquiring_options.challenge_every = config_.tracker.challenge_every;
+    // Challenges belong to finding the subject: a track from a given first pose (the fake scene's
+    // lab path) has none, as in the experiment.
+    acquiring_options.challenge_every = finds_subject_ ? config_.tracker.challenge_every : 0;
+    acquiring_options.trial_drop_margin = config_.tracker.trial_drop_margin;
     const BodyModel& body = *body_.model;
     std::vector<Eigen::VectorXd> stances = acquisitionStances(body);
     if (in_fit_pose && body.fit_pose) stances.push_back(body.stancePose(*body.fit_pose));

@@ -234,6 +234,7 @@ class Pipeline {
   BodyFitJob body_fit_;
   BackgroundManager backgrounds_;
   const bool can_acquire_;  // the configured body's root can be placed (fitted ones alike)
+  const bool finds_subject_;  // PipelineInputs::acquire: no first pose is given
 
   // Tracker thread only, after construction.
   std::unique_ptr<WorkerPool> pool_;

@@ -180,6 +180,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   recorded.filter.refine.max_evaluations = 30;                               // likewise
   recorded.filter.refine.unexplained = !recorded.filter.refine.unexplained;  // likewise
   recorded.challenge_every = 25;                                             // likewise
+  recorded.trial_drop_margin = 12.5;                                         // likewise
   const std::string cameras = "cameras:\n  - {driver: fake, width: 780, height: 580}\n";
 
   // A configuration without tracker keys: the session's settings, the configuration's threads.
@@ -201,6 +202,7 @@ TEST(ConfigTest, AReplayTracksWithTheSessionsSettingsUnderTheConfigurationsOwnKe
   EXPECT_EQ(as_recorded.filter.refine.unexplained, recorded.filter.refine.unexplained);
   EXPECT_EQ(as_recorded.dofs, "gait");
   EXPECT_EQ(as_recorded.challenge_every, 25);
+  EXPECT_EQ(as_recorded.trial_drop_margin, 12.5);
   EXPECT_EQ(as_recorded.threads, 1);
 
   // Keys the configuration sets itself win.
@@ -261,6 +263,8 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {lost_after: 0}\n", "tracker.lost_after: must be between 1 and"},
       {cameras + "tracker: {challenge_every: -1}\n",
        "tracker.challenge_every: must be between 0 and"},
+      {cameras + "tracker: {trial_drop_margin: -1}\n",
+       "tracker.trial_drop_margin: must be between 0 and"},
       {cameras + "listen: nowhere\n", "test.yaml:3: listen:"},
       {cameras + "listen: {host: 127.0.0.1}\n",
        "test.yaml:3: listen: expected a non-empty string, got a map"},

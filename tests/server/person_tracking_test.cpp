@@ -103,7 +103,8 @@ TEST_F(EndToEndTest, FindsAndTracksAPersonItIsNotToldTheStartOf) {
   v1::Status status;
   ASSERT_TRUE(stub->GetStatus(&status_context, {}, &status).ok());
   EXPECT_TRUE(status.tracking());
-  EXPECT_EQ(status.acquisitions(), 1u);
+  // Found, then challenged every `challenge_every` (10) sets: those find it again too.
+  EXPECT_GE(status.acquisitions(), 2u);
   EXPECT_EQ(status.losses(), 0u);
   EXPECT_EQ(status.search_failure(), "");
   EXPECT_EQ(status.tracker_settings().at("start"), "acquire");

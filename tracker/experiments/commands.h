@@ -20,6 +20,7 @@ inline constexpr const char* kHumanUsage =
     "       [--subject-scale K] [--tracked-body truth|default|fit|drawn] [--fit-rounds N]\n"
     "       [--limb-margin K]\n"
     "       [--lost-below FIT [--lost-after N]] [--challenge-every N]\n"
+    "       [--trial-drop-margin L]\n"
     "       [--dropout-at F --dropout-frames N]\n"
     "       [--scenario lab|product] [--subject-seed N] [--silhouettes true|extracted]\n"
     "       [--motion-units auto|m|cm|mm|cmu|inch] [--motion-joint-map FILE.yaml]\n"

@@ -224,6 +224,7 @@ TrackerUnderTest makeTracker(const HumanExperimentConfig& config, const BodyMode
   acquiring_options.lost_below = config.lost_below.value_or(0);
   acquiring_options.lost_after = config.lost_after;
   acquiring_options.challenge_every = config.challenge_every;
+  acquiring_options.trial_drop_margin = config.trial_drop_margin;
   auto acquiring =
       std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
                                         options.likelihood, makeTrackerFilter, acquiring_options);
@@ -436,6 +437,7 @@ nlohmann::json runHumanExperiment(const HumanExperimentConfig& config) {
     out["lost_after"] = config.lost_after;
     out["losses"] = tracker.acquiring->losses();
     out["challenge_every"] = config.challenge_every;
+    out["trial_drop_margin"] = config.trial_drop_margin;
   }
   return out;
 }
@@ -450,6 +452,7 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
     config.silhouettes = "extracted";
     config.subject_seed = kProductSubjectSeed;
     config.cameras = 2;
+    config.challenge_every = AcquiringOptions{}.challenge_every;
   } else if (scenario != "lab") {
     throw std::invalid_argument("--scenario: expected lab or product, got '" + scenario + "'");
   }
@@ -480,7 +483,9 @@ HumanExperimentConfig parseHumanCommand(int argc, char** argv) {
   config.skip_rate = args.real("skip-rate", 0.0, 0.0, 0.9);
   if (args.has("lost-below")) config.lost_below = args.real("lost-below", 0.0, 0.0, 0.99);
   config.lost_after = static_cast<int>(args.integer("lost-after", config.lost_after, 1, 1'000'000));
-  config.challenge_every = static_cast<int>(args.integer("challenge-every", 0, 0, 1'000'000));
+  config.challenge_every =
+      static_cast<int>(args.integer("challenge-every", config.challenge_every, 0, 1'000'000));
+  config.trial_drop_margin = args.real("trial-drop-margin", config.trial_drop_margin, 0.0, 1e9);
   config.dropout_at = static_cast<int>(args.integer("dropout-at", 0, 0, 1'000'000));
   config.dropout_frames = static_cast<int>(args.integer("dropout-frames", 0, 0, 1'000'000));
   config.model_path = args.text("model", "");

@@ -18,6 +18,7 @@
 #include "tracker/model/camera.h"
 #include "tracker/motion/bvh.h"
 #include "tracker/motion/motion.h"
+#include "tracker/search/acquire.h"
 #include "tracker/sim/scene.h"
 
 namespace mocap {
@@ -94,8 +95,11 @@ struct HumanExperimentConfig {
   std::optional<double> lost_below;
   int lost_after = 5;
   // AcquiringOptions::challenge_every (0: never): the subject acquired again every so many frames
-  // and the new hypotheses tried against the track.
+  // and the new hypotheses tried against the track. The lab path has none; the product scenario
+  // takes the acquiring filter's default.
   int challenge_every = 0;
+  // AcquiringOptions::trial_drop_margin: hypotheses this far behind the best leave a trial.
+  double trial_drop_margin = AcquiringOptions{}.trial_drop_margin;
   // The subject out of view: every camera's silhouette empty for dropout_frames frames from
   // frame dropout_at (the truth still moves and is still scored).
   int dropout_at = 0;

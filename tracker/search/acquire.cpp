@@ -299,14 +299,17 @@ AcquiringFilter::AcquiringFilter(const BodyModel& model, const Rig& rig,
     throw std::invalid_argument("acquisition: frames before the tracker is lost must be >= 1");
   if (options.challenge_every < 0)
     throw std::invalid_argument("acquisition: frames between challenges must be >= 0");
+  if (!(options.trial_drop_margin >= 0))
+    throw std::invalid_argument("acquisition: the trial's drop margin must be >= 0");
 }
 
 std::string AcquiringFilter::name() const {
   return hypotheses_.empty() ? "acquiring" : hypotheses_.front().filter->name();
 }
 
-AcquiringFilter::Hypothesis AcquiringFilter::newHypothesis(const Eigen::VectorXd& q0) {
-  Hypothesis h{make_filter_(), 0};
+AcquiringFilter::Hypothesis AcquiringFilter::newHypothesis(const Eigen::VectorXd& q0,
+                                                           std::optional<double> entry) {
+  Hypothesis h{make_filter_(), 0, entry};
   h.filter->reset(q0);
   return h;
 }
@@ -352,7 +355,8 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
       acquisition_evaluations = found.front().evaluations;
       // A lost or challenged filter stays among the hypotheses (first, so it wins ties).
       for (Hypothesis& h : hypotheses_) h.score = 0;
-      for (const Acquisition& a : found) hypotheses_.push_back(newHypothesis(a.q));
+      for (const Acquisition& a : found)
+        hypotheses_.push_back(newHypothesis(a.q, a.log_likelihood));
       trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
     }
     // The loss rule learns its level anew after a loss, not while a track goes on.
@@ -374,7 +378,19 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   // hypotheses' searches short and not the first's, so the trial would pick by timing. Competing
   // hypotheses search in full (the flow limiter drops sets meanwhile); a lone track gives way.
   const bool trial = hypotheses_.size() > 1;
-  for (Hypothesis& h : hypotheses_) {
+  const double margin = trial ? options_.trial_drop_margin : 0;
+  // Hypotheses just found have their acquisition's fit of this frame as a first score: one already
+  // `margin` behind the best does not track it (the track, first, has been scored by then).
+  double best_entry = -INFINITY;
+  for (const Hypothesis& h : hypotheses_)
+    best_entry = std::max(best_entry, h.entry.value_or(-INFINITY));
+  for (auto it = hypotheses_.begin(); it != hypotheses_.end();) {
+    Hypothesis& h = *it;
+    if (margin > 0 && h.entry && *h.entry < std::max(best, best_entry) - margin) {
+      it = hypotheses_.erase(it);
+      continue;
+    }
+    h.entry.reset();
     h.filter->setYield(trial ? std::function<bool()>() : yield_);
     FrameEstimate e = h.filter->step(masks);
     const PixelCounts counts = scorer_.evaluate(e.q, masks, 0);
@@ -387,11 +403,17 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
       ahead = std::move(e);
       ahead_counts = counts;
     }
+    ++it;
   }
   ahead.evaluations = evaluations;
   ahead.segment_renders = renders;
   ahead.cut_short = cut_short;
   ahead.silhouette_fit = silhouetteFit(ahead_counts, masks);
+  if (margin > 0) {
+    // Erased in place, so the track (first) stays first and keeps winning ties.
+    std::erase_if(hypotheses_, [&](const Hypothesis& h) { return h.score < best - margin; });
+    if (hypotheses_.size() == 1) trial_frames_left_ = 0;
+  }
   // Lost (in a trial too): this estimate is still given, and the next step acquires again with
   // the filter ahead kept.
   const bool lost = lostAfter(ahead.silhouette_fit);

@@ -308,6 +308,9 @@ TEST(HumanExperiment, TheScenarioSwitchSetsTheProductPath) {
   EXPECT_EQ(product.silhouettes, "extracted");
   EXPECT_EQ(product.subject_seed, kProductSubjectSeed);
   EXPECT_EQ(product.cameras, 3);  // given explicitly
+  EXPECT_EQ(product.challenge_every, AcquiringOptions{}.challenge_every);
+  EXPECT_GT(product.challenge_every, 0);
+  EXPECT_EQ(lab.challenge_every, 0);
   const HumanExperimentConfig other =
       parse({"--scenario", "product", "--subject-seed", "7", "--silhouettes", "true",
              "--tracked-body", "default", "--motion-units", "cm"});

@@ -49,6 +49,14 @@ double headingError(double a, double b) { return std::abs(std::remainder(a - b, 
 // The stride scene in 4 cameras and an acquiring filter over the factored filter with the
 // defaults for people at `evaluations` a frame (set in the constructor's body: the acquiring
 // filter makes its hypotheses' filters at its first step, not when it is built).
+// Every hypothesis runs the whole trial, and no challenge follows it.
+AcquiringOptions fullTrialsOnly() {
+  AcquiringOptions acquiring;
+  acquiring.challenge_every = 0;
+  acquiring.trial_drop_margin = 0;
+  return acquiring;
+}
+
 struct AcquiringStride {
   explicit AcquiringStride(int evaluations) { options.evaluations_per_frame = evaluations; }
   StrideScene scene{4};
@@ -56,8 +64,12 @@ struct AcquiringStride {
   WorkerPool pool{1};
   FilterOptions options = humanFilterDefaults();
   AcquiringFilter filter{
-      scene.model, scene.rig, acquisitionStances(scene.model), options.likelihood,
-      [this] { return makeFilter("factored", scene.model, scene.rig, options, pool); }};
+      scene.model,
+      scene.rig,
+      acquisitionStances(scene.model),
+      options.likelihood,
+      [this] { return makeFilter("factored", scene.model, scene.rig, options, pool); },
+      fullTrialsOnly()};
 };
 
 TEST(Acquire, PlacesTheBodyWhereItsSilhouettesMeetFacingEachWayItMight) {
@@ -174,8 +186,9 @@ TEST(Acquire, ALostTrackerSaysSoAndFindsTheSubjectAgain) {
   WorkerPool pool(1);
   FilterOptions options = humanFilterDefaults();
   options.evaluations_per_frame = 2000;
-  AcquiringFilter filter(m, scene.rig, acquisitionStances(m), options.likelihood,
-                         [&] { return makeFilter("factored", m, scene.rig, options, pool); });
+  AcquiringFilter filter(
+      m, scene.rig, acquisitionStances(m), options.likelihood,
+      [&] { return makeFilter("factored", m, scene.rig, options, pool); }, fullTrialsOnly());
   filter.reset(scene.truth);
   FrameEstimate e = filter.step(masks);
   EXPECT_GT(e.silhouette_fit, 0.9);
@@ -202,39 +215,60 @@ TEST(Acquire, ALostTrackerSaysSoAndFindsTheSubjectAgain) {
   EXPECT_LT(sum / static_cast<double>(points.size()), 0.05);  // metres, mean over the joints
 }
 
+// Tracks `frames` frames of the stride scene's truth from the body turned round.
+std::pair<std::unique_ptr<AcquiringFilter>, FrameEstimate> trackFromTurned(
+    const StrideScene& scene, const AcquiringOptions& acquiring, int frames) {
+  const BodyModel& m = scene.model;
+  const auto masks = silhouettes(m, scene.rig, scene.truth);
+  Eigen::VectorXd turned = scene.truth;
+  turned[m.dofIndex("root_yaw")] += M_PI;
+  static WorkerPool pool(1);
+  FilterOptions options = humanFilterDefaults();
+  options.evaluations_per_frame = 500;
+  auto filter = std::make_unique<AcquiringFilter>(
+      m, scene.rig, acquisitionStances(m), options.likelihood,
+      [&m, &scene, options] { return makeFilter("factored", m, scene.rig, options, pool); },
+      acquiring);
+  filter->reset(turned);
+  FrameEstimate e;
+  for (int f = 0; f < frames; ++f) e = filter->step(masks);
+  return {std::move(filter), e};
+}
+
 // A track started turned round (its silhouettes fit well enough never to be lost) is replaced once
 // a challenge finds the subject again facing its way; without challenges it stays wrong.
 TEST(Acquire, AChallengeReplacesATrackTurnedRound) {
   StrideScene scene(4);
-  const BodyModel& m = scene.model;
-  const auto masks = silhouettes(m, scene.rig, scene.truth);
-  const int yaw = m.dofIndex("root_yaw");
-  Eigen::VectorXd turned = scene.truth;
-  turned[yaw] += M_PI;
-  WorkerPool pool(1);
-  FilterOptions options = humanFilterDefaults();
-  options.evaluations_per_frame = 500;
-  auto trackFromTurned = [&](int challenge_every, int frames) {
-    AcquiringOptions acquiring;
-    acquiring.challenge_every = challenge_every;
-    auto filter = std::make_unique<AcquiringFilter>(
-        m, scene.rig, acquisitionStances(m), options.likelihood,
-        [&] { return makeFilter("factored", m, scene.rig, options, pool); }, acquiring);
-    filter->reset(turned);
-    FrameEstimate e;
-    for (int f = 0; f < frames; ++f) e = filter->step(masks);
-    return std::make_pair(std::move(filter), e);
-  };
-  const auto [unchallenged, stayed] = trackFromTurned(0, 20);
+  const int yaw = scene.model.dofIndex("root_yaw");
+  AcquiringOptions acquiring = fullTrialsOnly();
+  const auto [unchallenged, stayed] = trackFromTurned(scene, acquiring, 20);
   EXPECT_EQ(unchallenged->acquisitions(), 0);
   EXPECT_GT(stayed.silhouette_fit, 0);  // not lost: nothing replaces it
   EXPECT_GT(headingError(stayed.q[yaw], scene.truth[yaw]), 90 * kDeg);
   // Challenged on the 8th frame; the trial ends on the 17th, before the next challenge.
-  const auto [challenged, replaced] = trackFromTurned(8, 20);
+  acquiring.challenge_every = 8;
+  const auto [challenged, replaced] = trackFromTurned(scene, acquiring, 20);
   EXPECT_EQ(challenged->acquisitions(), 1);
   EXPECT_EQ(challenged->losses(), 0);
   EXPECT_LT(headingError(replaced.q[yaw], scene.truth[yaw]), 20 * kDeg);
   EXPECT_EQ(replaced.evaluations, 500 + 1);  // one hypothesis left
+}
+
+// With a drop margin the hypotheses trailing the best leave the trial early: the same challenge
+// still turns the track round, and four frames into the trial only one hypothesis is left, where
+// without the margin all still run.
+TEST(Acquire, TrailingHypothesesLeaveTheTrialEarly) {
+  StrideScene scene(4);
+  const int yaw = scene.model.dofIndex("root_yaw");
+  AcquiringOptions acquiring = fullTrialsOnly();
+  acquiring.challenge_every = 8;
+  const auto [all_run, full_trial] = trackFromTurned(scene, acquiring, 12);
+  EXPECT_GT(full_trial.evaluations, 2 * (500 + 1));
+  acquiring.trial_drop_margin = 40;
+  const auto [raced, replaced] = trackFromTurned(scene, acquiring, 12);
+  EXPECT_EQ(raced->acquisitions(), 1);
+  EXPECT_EQ(replaced.evaluations, 500 + 1);
+  EXPECT_LT(headingError(replaced.q[yaw], scene.truth[yaw]), 20 * kDeg);
 }
 
 // A challenge on a frame where no subject is seen (fewer than two cameras see enough) changes
@@ -351,6 +385,36 @@ TEST(Acquire, ABodyWithoutAFreeRootIsRefusedByName) {
   EXPECT_THROW(AcquiringFilter(hand, rig, {hand.neutralPose()}, LikelihoodParams{},
                                [&] { return makeFilter("factored", hand, rig, {}, pool); }),
                std::invalid_argument);
+}
+
+// Options out of range are refused, naming the one that is wrong.
+TEST(Acquire, BadOptionsAreRefusedByName) {
+  StrideScene scene;
+  const BodyModel& m = scene.model;
+  WorkerPool pool(1);
+  auto refusal = [&](const AcquiringOptions& acquiring) {
+    try {
+      AcquiringFilter(
+          m, scene.rig, acquisitionStances(m), LikelihoodParams{},
+          [&] { return makeFilter("factored", m, scene.rig, {}, pool); }, acquiring);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  AcquiringOptions acquiring;
+  acquiring.trial_frames = 0;
+  EXPECT_THAT(refusal(acquiring), HasSubstr("trial frames"));
+  acquiring = {};
+  acquiring.challenge_every = -1;
+  EXPECT_THAT(refusal(acquiring), HasSubstr("challenges"));
+  acquiring = {};
+  acquiring.trial_drop_margin = -1;
+  EXPECT_THAT(refusal(acquiring), HasSubstr("drop margin"));
+  acquiring.trial_drop_margin = std::nan("");
+  EXPECT_THAT(refusal(acquiring), HasSubstr("drop margin"));
+  acquiring.trial_drop_margin = 40;
+  EXPECT_EQ(refusal(acquiring), "accepted");
 }
 
 }  // namespace
