@@ -315,6 +315,7 @@ AcquiringFilter::Hypothesis AcquiringFilter::newHypothesis(const Eigen::VectorXd
 }
 
 void AcquiringFilter::reset(const Eigen::VectorXd& q0) {
+  challenge_ = {};
   hypotheses_.clear();
   hypotheses_.push_back(newHypothesis(q0));
   searching_ = false;
@@ -325,6 +326,7 @@ void AcquiringFilter::reset(const Eigen::VectorXd& q0) {
 }
 
 void AcquiringFilter::reacquire() {
+  challenge_ = {};
   hypotheses_.clear();
   searching_ = true;
   trial_frames_left_ = 0;
@@ -337,33 +339,26 @@ void AcquiringFilter::setYield(std::function<bool()> newer_frame_waiting) {
 FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   long acquisition_evaluations = 0;
   ++steps_;
-  const bool challenge = options_.challenge_every > 0 && steps_ % options_.challenge_every == 0 &&
-                         !searching_ && hypotheses_.size() == 1;
-  if (searching_ || challenge) {
+  if (searching_) {
+    challenge_ = {};  // the acquisition below replaces it
     const std::vector<Acquisition> found =
         acquireSubject(model_, rig_, masks, stances_, likelihood_, options_.search, &last_failure_);
-    // A challenge that finds nothing leaves the track as it was.
-    if (found.empty() && !challenge) {
+    if (found.empty()) {
       FrameEstimate none;
       none.q = stances_.front();
       none.found = false;
       return none;
     }
-    if (!found.empty()) {
-      last_failure_.clear();
-      ++acquisitions_;
-      acquisition_evaluations = found.front().evaluations;
-      // A lost or challenged filter stays among the hypotheses (first, so it wins ties).
-      for (Hypothesis& h : hypotheses_) h.score = 0;
-      for (const Acquisition& a : found)
-        hypotheses_.push_back(newHypothesis(a.q, a.log_likelihood));
-      trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
-    }
+    last_failure_.clear();
+    ++acquisitions_;
+    acquisition_evaluations = found.front().evaluations;
+    // A lost filter stays among the hypotheses (first, so it wins ties).
+    for (Hypothesis& h : hypotheses_) h.score = 0;
+    for (const Acquisition& a : found) hypotheses_.push_back(newHypothesis(a.q, a.log_likelihood));
+    trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
     // The loss rule learns its level anew after a loss, not while a track goes on.
-    if (searching_) {
-      recent_fits_.clear();
-      low_fit_frames_ = 0;
-    }
+    recent_fits_.clear();
+    low_fit_frames_ = 0;
     searching_ = false;
   }
 
@@ -372,25 +367,17 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   FrameEstimate ahead;
   PixelCounts ahead_counts;
   double best = -INFINITY;
-  long evaluations = acquisition_evaluations, renders = 0;
+  long evaluations = 0, renders = 0;
   bool cut_short = false;
+  // A challenge found on the previous frame joins a trial on this one.
+  const bool joining = challenge_.valid();
+  if (joining) hypotheses_.front().score = 0;
   // Live, a step gives way when the next frame set waits; in a trial that would cut the later
   // hypotheses' searches short and not the first's, so the trial would pick by timing. Competing
   // hypotheses search in full (the flow limiter drops sets meanwhile); a lone track gives way.
-  const bool trial = hypotheses_.size() > 1;
+  const bool trial = hypotheses_.size() > 1 || joining;
   const double margin = trial ? options_.trial_drop_margin : 0;
-  // Hypotheses just found have their acquisition's fit of this frame as a first score: one already
-  // `margin` behind the best does not track it (the track, first, has been scored by then).
-  double best_entry = -INFINITY;
-  for (const Hypothesis& h : hypotheses_)
-    best_entry = std::max(best_entry, h.entry.value_or(-INFINITY));
-  for (auto it = hypotheses_.begin(); it != hypotheses_.end();) {
-    Hypothesis& h = *it;
-    if (margin > 0 && h.entry && *h.entry < std::max(best, best_entry) - margin) {
-      it = hypotheses_.erase(it);
-      continue;
-    }
-    h.entry.reset();
+  auto track = [&](Hypothesis& h) {
     h.filter->setYield(trial ? std::function<bool()>() : yield_);
     FrameEstimate e = h.filter->step(masks);
     const PixelCounts counts = scorer_.evaluate(e.q, masks, 0);
@@ -403,9 +390,39 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
       ahead = std::move(e);
       ahead_counts = counts;
     }
+  };
+  // Hypotheses just found have their acquisition's fit of this frame as a first score: one already
+  // `margin` behind the best does not track it (the track, first, has been scored by then).
+  double best_entry = -INFINITY;
+  for (const Hypothesis& h : hypotheses_)
+    best_entry = std::max(best_entry, h.entry.value_or(-INFINITY));
+  for (auto it = hypotheses_.begin(); it != hypotheses_.end();) {
+    if (margin > 0 && it->entry && *it->entry < std::max(best, best_entry) - margin) {
+      it = hypotheses_.erase(it);
+      continue;
+    }
+    it->entry.reset();
+    track(*it);
     ++it;
   }
-  ahead.evaluations = evaluations;
+  if (joining) {
+    // Found on the previous frame, as the track was scored there: the same gate on that frame's
+    // scores, then each start tracks this frame as the track just did, from its pose of then.
+    Challenge challenge = challenge_.get();
+    last_failure_ = challenge.why_not;
+    if (!challenge.found.empty()) {
+      ++acquisitions_;
+      acquisition_evaluations = challenge.found.front().evaluations;
+      const double bar = std::max(challenge.track_score, challenge.found.front().log_likelihood);
+      for (const Acquisition& a : challenge.found) {
+        if (margin > 0 && a.log_likelihood < bar - margin) continue;
+        hypotheses_.push_back(newHypothesis(a.q));
+        track(hypotheses_.back());
+      }
+      trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
+    }
+  }
+  ahead.evaluations = evaluations + acquisition_evaluations;
   ahead.segment_renders = renders;
   ahead.cut_short = cut_short;
   ahead.silhouette_fit = silhouetteFit(ahead_counts, masks);
@@ -429,6 +446,18 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   if (lost) {
     ++losses_;
     searching_ = true;
+  } else if (options_.challenge_every > 0 && steps_ % options_.challenge_every == 0 &&
+             hypotheses_.size() == 1) {
+    // The subject is found again on this frame's masks beside the track (another thread: live,
+    // while the tracker waits for the next set), and the starts join the next frame's trial.
+    challenge_ = std::async(std::launch::async,
+                            [this, masks, track_score = logLikelihood(likelihood_, ahead_counts)] {
+                              Challenge c;
+                              c.found = acquireSubject(model_, rig_, masks, stances_, likelihood_,
+                                                       options_.search, &c.why_not);
+                              c.track_score = track_score;
+                              return c;
+                            });
   }
   return ahead;
 }

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <functional>
+#include <future>
 #include <memory>
 #include <optional>
 
@@ -77,14 +78,15 @@ struct AcquiringOptions {
   // the silhouettes (about 0.97 clean and synthetic, 0.70 with shadows and holes).
   double lost_below = 0;
   int lost_after = 5;
-  // Every `challenge_every` frames (0: never) that find one track decided, the subject is acquired
-  // again while the track goes on, and the new hypotheses are tried against it as after a loss (the
-  // track first, so it wins ties). A track that has settled on a wrong pose that still fits (turned
-  // round, the legs exchanged, a leg inside the other's silhouette) is not lost by its fit, and
-  // nothing else would replace it. It costs an acquisition and, for trial_frames frames, a filter
-  // per hypothesis (most of them raced off at once: trial_drop_margin). Every 10 frames with the
-  // margin below, on the product path's development runs: 15.9 +- 7.3 mm a run better than none,
-  // for 15 % more evaluations (docs/human.md).
+  // Every `challenge_every` frames (0: never) that end with one track decided, the subject is
+  // acquired again on that frame, beside the track on another thread, and from the next frame the
+  // new hypotheses are tried against it as after a loss (the track first, so it wins ties). A track
+  // that has settled on a wrong pose that still fits (turned round, the legs exchanged, a leg
+  // inside the other's silhouette) is not lost by its fit, and nothing else would replace it. It
+  // costs an acquisition and, for trial_frames frames, a filter per hypothesis (most of them raced
+  // off at once: trial_drop_margin). Every 10 frames with the margin below, on the product path's
+  // development runs: 15.9 +- 7.3 mm a run better than none, for 15 % more evaluations
+  // (docs/human.md).
   int challenge_every = 10;
   // During a trial, a hypothesis whose summed log-likelihood falls more than this behind the best
   // one's is dropped, and the trial ends when one is left (0: every hypothesis runs the whole
@@ -105,7 +107,8 @@ struct AcquiringOptions {
 // its silhouetteFit (one more full-body evaluation, counted); once the tracker is lost, the
 // filter it was tracking with stays one of the hypotheses of the acquisition that follows, so a
 // false alarm costs evaluations, not the track. A challenge (challenge_every) is such an
-// acquisition without a loss.
+// acquisition without a loss, searched while the tracker waits for the next frame; the results
+// do not depend on when it finishes.
 class AcquiringFilter final : public PoseFilter {
  public:
   using FilterFactory = std::function<std::unique_ptr<PoseFilter>()>;
@@ -136,6 +139,13 @@ class AcquiringFilter final : public PoseFilter {
     std::optional<double> entry;
   };
 
+  // A challenge's acquisition, and the track's log-likelihood on the frame it searched.
+  struct Challenge {
+    std::vector<Acquisition> found;
+    std::string why_not;
+    double track_score = 0;
+  };
+
   Hypothesis newHypothesis(const Eigen::VectorXd& q0, std::optional<double> entry = {});
   // Whether the tracker is lost after an estimate of this fit (options_.lost_below).
   bool lostAfter(double fit);
@@ -157,6 +167,8 @@ class AcquiringFilter final : public PoseFilter {
   int acquisitions_ = 0;
   int losses_ = 0;
   std::string last_failure_;
+  // Last, so it is waited for before the members its search reads go.
+  std::future<Challenge> challenge_;
 };
 
 // True if acquireSubject can place this model (free root X and Y translations and Z rotation);
