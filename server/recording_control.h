@@ -5,9 +5,10 @@
 // fit starts while a recording is open.
 //
 // Threads: start(), stop(), status() and backgroundsInUse() from any thread (the service's, the
-// pipeline's stop()); tap() from the mask thread; noteBackground() from the mask thread (or the
-// pipeline's constructor, before it starts); reserveBodyChange() and releaseBodyChange() from the
-// body-fit job (the requester's thread, the mask or fit thread).
+// pipeline's stop()), but start() from one at the daemon's scheduling policy, which the recorder's
+// writers inherit (not the web view's idle one); tap() from the mask thread; noteBackground() from
+// the mask thread (or the pipeline's constructor, before it starts); reserveBodyChange() and
+// releaseBodyChange() from the body-fit job (the requester's thread, the mask or fit thread).
 #pragma once
 
 #include <cstdint>

@@ -10,6 +10,7 @@
 #include <future>
 #include <sstream>
 #include <string_view>
+#include <type_traits>
 
 #include <nlohmann/json.hpp>
 
@@ -64,7 +65,10 @@ std::string readFile(const std::string& path) {
 // preempted at idle priority while holding a lock would hold up whoever waits for it, so the
 // pipeline's hot paths never wait for a lock the view takes (WebView::offer, CameraImages::keep,
 // PosePublisher::subscriberCount); only a status request or a control, a few a second at most,
-// reads the pipeline's own state under its locks.
+// reads the pipeline's own state under its locks. Threads inherit their creator's policy, so the
+// controls that start threads or wait for them (a recording's writers) run on the control thread,
+// at the daemon's policy: a writer at idle priority barely runs on a saturated machine, and a
+// recording's stop would wait minutes for it.
 void becomeAViewThread() {
   nameThisThread(kThreadName);
   const sched_param no_priority{};
@@ -184,6 +188,18 @@ std::optional<Result> await(Start start) {
   return future.get();
 }
 
+// Runs `control` on `thread` and waits for its answer on this server thread; nullopt after
+// kControlTimeout. What the control throws is thrown here, where httplib answers 500.
+template <typename Control>
+std::optional<std::invoke_result_t<Control>> onThread(httplib::TaskQueue& thread, Control control) {
+  using Result = std::invoke_result_t<Control>;
+  auto task = std::make_shared<std::packaged_task<Result()>>(std::move(control));
+  std::future<Result> answer = task->get_future();
+  thread.enqueue([task] { (*task)(); });
+  if (answer.wait_for(kControlTimeout) != std::future_status::ready) return std::nullopt;
+  return answer.get();
+}
+
 }  // namespace
 
 WebView::WebView(const ServerConfig& config, Pipeline& pipeline, const Rig& rig,
@@ -231,6 +247,8 @@ Status WebView::start() {
   if (port_ <= 0)
     return Status::Error("web.listen: cannot listen on " + listen + " (address in use or invalid)");
   subscribed_ = publisher_.subscribe(this);
+  control_thread_ = std::make_unique<httplib::ThreadPool>(1);
+  control_thread_->enqueue([] { nameThisThread("mocapd-control"); });
   listener_ = std::thread([this] {
     becomeAViewThread();
     server_->listen_after_bind();
@@ -250,6 +268,9 @@ void WebView::stop() {
     server_->stop();
     listener_.join();
   }
+  // After the server's threads: none can enqueue a control any more, and the queued ones finish.
+  if (control_thread_) control_thread_->shutdown();
+  control_thread_.reset();
 }
 
 // On the publisher's thread, which never waits for the view: if a view thread holds the slot
@@ -435,22 +456,25 @@ void WebView::addControlRoutes() {
                      {"fit_seconds", result->fit_seconds},
                      {"body_version", result->body_version}});
       });
-  server.Post("/api/recording/start", [this](const httplib::Request& request,
-                                             httplib::Response& response) {
-    if (!authorized(request, response)) return;
-    const std::string path = request.get_param_value("path");
-    const RecordingResult result =
-        pipeline_.startRecording(path.empty() ? "web-" + std::to_string(std::time(nullptr)) : path);
-    replyResult(response, httpCode(result.error), result.message,
-                {{"path", result.status.path}, {"active", result.status.active}});
-  });
   server.Post(
-      "/api/recording/stop", [this](const httplib::Request& request, httplib::Response& response) {
+      "/api/recording/start", [this](const httplib::Request& request, httplib::Response& response) {
         if (!authorized(request, response)) return;
-        const RecordingResult result = pipeline_.stopRecording();
-        replyResult(response, httpCode(result.error), result.message,
-                    {{"path", result.status.path}, {"frame_sets", result.status.frame_sets}});
+        std::string path = request.get_param_value("path");
+        if (path.empty()) path = "web-" + std::to_string(std::time(nullptr));
+        const auto result =
+            onThread(*control_thread_, [this, path] { return pipeline_.startRecording(path); });
+        if (!result) return replyResult(response, 504, "no answer from the pipeline");
+        replyResult(response, httpCode(result->error), result->message,
+                    {{"path", result->status.path}, {"active", result->status.active}});
       });
+  server.Post("/api/recording/stop", [this](const httplib::Request& request,
+                                            httplib::Response& response) {
+    if (!authorized(request, response)) return;
+    const auto result = onThread(*control_thread_, [this] { return pipeline_.stopRecording(); });
+    if (!result) return replyResult(response, 504, "no answer from the pipeline");
+    replyResult(response, httpCode(result->error), result->message,
+                {{"path", result->status.path}, {"frame_sets", result->status.frame_sets}});
+  });
   server.Post(
       "/api/reacquire", [this](const httplib::Request& request, httplib::Response& response) {
         if (!authorized(request, response)) return;

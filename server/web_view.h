@@ -27,6 +27,7 @@
 
 namespace httplib {
 class Server;
+class TaskQueue;
 class Request;
 class Response;
 }  // namespace httplib
@@ -71,6 +72,10 @@ class WebView final : public PoseSubscriber {
   CameraImages images_;
   std::unique_ptr<httplib::Server> server_;
   std::thread listener_;
+  // Runs the controls that do the pipeline's work on the caller's thread (recording start and
+  // stop): what they start inherits the caller's scheduling policy, which must be the daemon's,
+  // not the view's idle one. Started by start(), on the daemon's thread.
+  std::unique_ptr<httplib::TaskQueue> control_thread_;
   int port_ = 0;
   bool subscribed_ = false;
 

@@ -4,6 +4,7 @@
 #include "drivers/record/png_writer.h"
 
 #include <fcntl.h>
+#include <pthread.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -226,6 +227,10 @@ Status Recorder::open(const fs::path& dir, const Rig& rig, const std::vector<Ses
   last_index_sync_ns_ = monotonicNowNs();
   writer_ = std::thread([this] { writerLoop(); });
   background_writer_ = std::thread([this] { backgroundWriterLoop(); });
+  // Named here, not by the threads themselves, so the names are set once open() returns; the
+  // writer's encoding helpers inherit its name.
+  pthread_setname_np(writer_.native_handle(), kThreadName);
+  pthread_setname_np(background_writer_.native_handle(), kThreadName);
   return Status::Ok();
 }
 

@@ -90,9 +90,14 @@ struct SetTruth {
 };
 
 // Thread use: open(), write(), writeBackground() and close() from one thread at a time (mocapd
-// hands the recorder between its threads under a lock); stats() from any.
+// hands the recorder between its threads under a lock); stats() from any. The writer threads
+// (named kThreadName; the cameras of a set are encoded on helpers they start) inherit the
+// scheduling policy of the thread calling open(): one at idle priority leaves them starved on a
+// busy machine, and close() waiting for them.
 class Recorder {
  public:
+  static constexpr const char* kThreadName = "mocapd-record";
+
   // Sessions may only be created under `root` (an existing directory).
   explicit Recorder(std::filesystem::path root, RecorderOptions options = {});
   ~Recorder();

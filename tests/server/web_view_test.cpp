@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "drivers/builtin_drivers.h"
+#include "drivers/record/recorder.h"
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
 
@@ -186,6 +187,39 @@ TEST_F(WebViewTest, TheViewsThreadsYieldToThePipeline) {
       EXPECT_EQ(policy, SCHED_OTHER) << name;
     }
   }
+}
+
+// A recording started and stopped from the view is written at the daemon's policy: its writers
+// inherit their creator's, and at the view's idle one they barely run on a busy machine, leaving
+// the stop waiting for them.
+TEST_F(WebViewTest, ARecordingsWritersKeepTheDaemonsPolicy) {
+  ServerConfig config = test::sceneConfig();
+  const fs::path root =
+      fs::temp_directory_path() / ("mocap_web_policy_" + std::to_string(getpid()));
+  fs::remove_all(root);
+  fs::create_directories(root);
+  config.recording_directory = root.string();
+  start(config);
+  auto started = client_->Post("/api/recording/start?path=policy_session");
+  // Refused until every camera has sent a frame.
+  for (int i = 0; i < 50 && started && started->status == 409; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    started = client_->Post("/api/recording/start?path=policy_session");
+  }
+  ASSERT_TRUE(started);
+  ASSERT_EQ(started->status, 200) << started->body;
+  const std::multimap<std::string, int> policies = threadPolicies();
+  EXPECT_GE(policies.count(Recorder::kThreadName), 2u) << "the set and background writers";
+  for (const auto& [name, policy] : policies) {
+    if (name == Recorder::kThreadName || name == "mocapd-control") {
+      EXPECT_EQ(policy, SCHED_OTHER) << name;
+    }
+  }
+  auto stopped = client_->Post("/api/recording/stop");
+  ASSERT_TRUE(stopped);
+  EXPECT_EQ(stopped->status, 200) << stopped->body;
+  server_->shutdown();
+  fs::remove_all(root);
 }
 
 // Halved: the scene's 780x580 cameras are wider than the 640 pixels an image is sent at most; the
