@@ -46,9 +46,6 @@ struct StrideScene {
 
 double headingError(double a, double b) { return std::abs(std::remainder(a - b, 2 * M_PI)); }
 
-// The stride scene in 4 cameras and an acquiring filter over the factored filter with the
-// defaults for people at `evaluations` a frame (set in the constructor's body: the acquiring
-// filter makes its hypotheses' filters at its first step, not when it is built).
 // Every hypothesis runs the whole trial, and no challenge follows it.
 AcquiringOptions fullTrialsOnly() {
   AcquiringOptions acquiring;
@@ -57,6 +54,9 @@ AcquiringOptions fullTrialsOnly() {
   return acquiring;
 }
 
+// The stride scene in 4 cameras and an acquiring filter with full trials only over the factored
+// filter with the defaults for people at `evaluations` a frame (set in the constructor's body: the
+// acquiring filter makes its hypotheses' filters at its first step, not when it is built).
 struct AcquiringStride {
   explicit AcquiringStride(int evaluations) { options.evaluations_per_frame = evaluations; }
   StrideScene scene{4};
