@@ -340,7 +340,6 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   long acquisition_evaluations = 0;
   ++steps_;
   if (searching_) {
-    challenge_ = {};  // the acquisition below replaces it
     const std::vector<Acquisition> found =
         acquireSubject(model_, rig_, masks, stances_, likelihood_, options_.search, &last_failure_);
     if (found.empty()) {
