@@ -35,7 +35,8 @@ BvhExportOptions exportOptions(std::vector<std::string>& args) {
 BvhClip streamedClip(const DaemonFlags& flags, long seconds) {
   DaemonClient client(flags);
   BvhClip clip;
-  check(client.stub().GetSkeleton(client.context().get(), {}, &clip.skeleton), "GetSkeleton");
+  client.call("GetSkeleton", &DaemonClient::Stub::GetSkeleton, {}, clip.skeleton,
+              DaemonClient::kQuickTimeout);
   std::unique_ptr<grpc::ClientContext> context = client.context();
   context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
   mocap::v1::StreamPosesRequest request;

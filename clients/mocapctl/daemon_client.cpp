@@ -1,6 +1,9 @@
 // Connection to mocapd for mocapctl.
 #include "clients/mocapctl/daemon_client.h"
 
+#include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -18,6 +21,7 @@ std::vector<std::string> parseDaemonFlags(int argc, char** argv, DaemonFlags& fl
                           : arg == "--tls-ca"   ? &flags.tls_ca
                           : arg == "--tls-cert" ? &flags.tls_cert
                           : arg == "--tls-key"  ? &flags.tls_key
+                          : arg == "--timeout"  ? &flags.timeout
                                                 : nullptr;
     if (!target) {
       rest.push_back(arg);
@@ -39,9 +43,50 @@ std::string readPem(const std::string& path) {
   return pem.str();
 }
 
+// --timeout's seconds (a fraction allowed) as a duration; throws unless a number above zero.
+std::chrono::milliseconds parseTimeout(const std::string& text) {
+  double seconds = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), seconds);
+  if (error != std::errc() || end != text.data() + text.size() || !std::isfinite(seconds) ||
+      seconds <= 0 || seconds > 86'400)
+    throw std::runtime_error("--timeout: seconds above 0, at most a day (got '" + text + "')");
+  return std::max(std::chrono::milliseconds(1),
+                  std::chrono::milliseconds(std::llround(seconds * 1000)));
+}
+
+// "120 s", "0.5 s".
+std::string secondsText(std::chrono::milliseconds duration) {
+  std::ostringstream text;
+  text << std::chrono::duration<double>(duration).count() << " s";
+  return text.str();
+}
+
+std::string codeName(grpc::StatusCode code) {
+  static const char* const kCodes[] = {"OK",
+                                       "CANCELLED",
+                                       "UNKNOWN",
+                                       "INVALID_ARGUMENT",
+                                       "DEADLINE_EXCEEDED",
+                                       "NOT_FOUND",
+                                       "ALREADY_EXISTS",
+                                       "PERMISSION_DENIED",
+                                       "RESOURCE_EXHAUSTED",
+                                       "FAILED_PRECONDITION",
+                                       "ABORTED",
+                                       "OUT_OF_RANGE",
+                                       "UNIMPLEMENTED",
+                                       "INTERNAL",
+                                       "UNAVAILABLE",
+                                       "DATA_LOSS",
+                                       "UNAUTHENTICATED"};
+  const int index = static_cast<int>(code);
+  return index >= 0 && index <= 16 ? kCodes[index] : std::to_string(index);
+}
+
 }  // namespace
 
-DaemonClient::DaemonClient(const DaemonFlags& flags) : token_(flags.token) {
+DaemonClient::DaemonClient(const DaemonFlags& flags) : server_(flags.server), token_(flags.token) {
+  if (!flags.timeout.empty()) timeout_ = parseTimeout(flags.timeout);
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
   if (flags.tls_cert.empty() != flags.tls_key.empty())
     throw std::runtime_error("--tls-cert and --tls-key go together");
@@ -69,16 +114,22 @@ std::unique_ptr<grpc::ClientContext> DaemonClient::context() const {
   return context;
 }
 
+void DaemonClient::checkAnswer(const grpc::Status& status, const char* what,
+                               std::chrono::system_clock::time_point deadline,
+                               std::chrono::milliseconds bound) const {
+  if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED &&
+      std::chrono::system_clock::now() >= deadline) {
+    throw std::runtime_error(std::string(what) + ": DEADLINE_EXCEEDED: no answer from mocapd at " +
+                             server_ + " within " + secondsText(bound) +
+                             " (is it hung or overloaded? --timeout SECONDS waits longer)");
+  }
+  check(status, what);
+}
+
 void check(const grpc::Status& status, const std::string& what) {
   if (status.ok()) return;
-  static const char* const kCodes[] = {
-      "OK", "CANCELLED", "UNKNOWN", "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
-      "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
-      "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL", "UNAVAILABLE", "DATA_LOSS",
-      "UNAUTHENTICATED"};
-  const int code = static_cast<int>(status.error_code());
-  const std::string name = code >= 0 && code <= 16 ? kCodes[code] : std::to_string(code);
-  throw std::runtime_error(what + ": " + name + ": " + status.error_message());
+  throw std::runtime_error(what + ": " + codeName(status.error_code()) + ": " +
+                           status.error_message());
 }
 
 }  // namespace mocapctl

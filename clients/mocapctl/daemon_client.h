@@ -1,5 +1,9 @@
-// What every mocapctl subcommand that talks to mocapd shares: the --server/--token/--tls-ca
-// flags, the channel and the per-call credentials.
+// What every mocapctl subcommand that talks to mocapd shares: the --server/--token/--tls-ca/
+// --timeout flags, the channel, the per-call credentials and each request's deadline.
+//
+// Every request but the pose stream has a deadline: a daemon that accepts the connection and then
+// hangs would otherwise hang the command, and any script that runs it, for ever. Each bound is
+// generous for what the daemon does before it answers, and finite; --timeout overrides them all.
 //
 // Channel arguments that keep a slow reader near live: the daemon drops a subscriber's oldest
 // poses only once its write is stuck, and a write gets stuck only when the client's HTTP/2 flow
@@ -10,7 +14,9 @@
 // few frames old, with Pose.missed_before telling it how many it lost.
 #pragma once
 
+#include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +34,9 @@ struct DaemonFlags {
   // for one (tls.client_ca); both or neither, with --tls-ca.
   std::string tls_cert;
   std::string tls_key;
+  // --timeout SECONDS: how long each request waits for the daemon's answer, instead of its own
+  // bound (DaemonClient's k...Timeout); empty: those.
+  std::string timeout;
 };
 
 // Parses argv[2...]: the daemon flags are taken out, the rest is returned in order. Throws
@@ -36,14 +45,51 @@ std::vector<std::string> parseDaemonFlags(int argc, char** argv, DaemonFlags& fl
 
 class DaemonClient {
  public:
+  using Stub = mocap::v1::MocapService::Stub;
+
+  // How long a request may wait for its answer, by what the daemon does before it answers.
+  // Reads its state or sets a flag (GetStatus, GetSkeleton, Reacquire): at once, unless the host
+  // is saturated or the connection slow to set up.
+  static constexpr std::chrono::seconds kQuickTimeout{10};
+  // Opens a session: checks the free space, creates its folders and writes the rig, the body and
+  // the index headers, which a slow or busy disk can take seconds over.
+  static constexpr std::chrono::seconds kRecordingStartTimeout{30};
+  // Closes a session: the writers first encode and write every queued frame set (8 by default,
+  // tens of milliseconds a frame for lossless images, longer on a slow card), then sync the
+  // indexes. A busy disk can take a minute over that; a hung daemon never answers.
+  static constexpr std::chrono::seconds kRecordingStopTimeout{120};
+
+  // Throws std::runtime_error on unusable TLS flags or --timeout.
   explicit DaemonClient(const DaemonFlags& flags);
-  mocap::v1::MocapService::Stub& stub() { return *stub_; }
-  // A context carrying the bearer token, if any.
+  Stub& stub() { return *stub_; }
+  // A context carrying the bearer token, if any, and no deadline: for the pose stream.
   std::unique_ptr<grpc::ClientContext> context() const;
 
+  // One unary request: `rpc` (e.g. &Stub::GetStatus) with the token, answered within `timeout`
+  // (or --timeout). Throws std::runtime_error naming `what` unless the answer is OK; past the
+  // deadline, the error says so and names the daemon's address.
+  template <typename Request, typename Response>
+  void call(const char* what,
+            grpc::Status (Stub::*rpc)(grpc::ClientContext*, const Request&, Response*),
+            const Request& request, Response& response, std::chrono::seconds timeout) {
+    const std::chrono::milliseconds bound = timeout_.value_or(timeout);
+    const auto deadline = std::chrono::system_clock::now() + bound;
+    std::unique_ptr<grpc::ClientContext> context = this->context();
+    context->set_deadline(deadline);
+    checkAnswer((stub_.get()->*rpc)(context.get(), request, &response), what, deadline, bound);
+  }
+
  private:
+  // As check(), but a DEADLINE_EXCEEDED at or past `deadline` is this client giving up (the
+  // daemon's own DEADLINE_EXCEEDED, as a background capture's when frames stop, comes earlier).
+  void checkAnswer(const grpc::Status& status, const char* what,
+                   std::chrono::system_clock::time_point deadline,
+                   std::chrono::milliseconds bound) const;
+
+  std::string server_;
   std::string token_;
-  std::unique_ptr<mocap::v1::MocapService::Stub> stub_;
+  std::optional<std::chrono::milliseconds> timeout_;  // --timeout
+  std::unique_ptr<Stub> stub_;
 };
 
 // Throws std::runtime_error("<what>: <code>: <message>") unless `status` is OK.

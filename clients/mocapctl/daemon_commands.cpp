@@ -144,7 +144,7 @@ int runStatus(int argc, char** argv) {
   noMoreArguments(parseDaemonFlags(argc, argv, flags));
   DaemonClient client(flags);
   mocap::v1::Status status;
-  check(client.stub().GetStatus(client.context().get(), {}, &status), "GetStatus");
+  client.call("GetStatus", &DaemonClient::Stub::GetStatus, {}, status, DaemonClient::kQuickTimeout);
   std::cout << toJson(status);
   return 0;
 }
@@ -154,7 +154,8 @@ int runSkeleton(int argc, char** argv) {
   noMoreArguments(parseDaemonFlags(argc, argv, flags));
   DaemonClient client(flags);
   mocap::v1::Skeleton skeleton;
-  check(client.stub().GetSkeleton(client.context().get(), {}, &skeleton), "GetSkeleton");
+  client.call("GetSkeleton", &DaemonClient::Stub::GetSkeleton, {}, skeleton,
+              DaemonClient::kQuickTimeout);
   std::cout << toJson(skeleton);
   return 0;
 }
@@ -174,10 +175,12 @@ int runRecord(int argc, char** argv) {
       args.erase(args.begin());
     }
     noMoreArguments(args);
-    check(client.stub().StartRecording(client.context().get(), request, &state), "StartRecording");
+    client.call("StartRecording", &DaemonClient::Stub::StartRecording, request, state,
+                DaemonClient::kRecordingStartTimeout);
   } else if (action == "stop") {
     noMoreArguments(args);
-    check(client.stub().StopRecording(client.context().get(), {}, &state), "StopRecording");
+    client.call("StopRecording", &DaemonClient::Stub::StopRecording, {}, state,
+                DaemonClient::kRecordingStopTimeout);
   } else {
     throw std::runtime_error("expected 'start [PATH]' or 'stop', got '" + action + "'");
   }
@@ -190,7 +193,8 @@ int runReacquire(int argc, char** argv) {
   noMoreArguments(parseDaemonFlags(argc, argv, flags));
   DaemonClient client(flags);
   mocap::v1::ReacquireResponse response;
-  check(client.stub().Reacquire(client.context().get(), {}, &response), "Reacquire");
+  client.call("Reacquire", &DaemonClient::Stub::Reacquire, {}, response,
+              DaemonClient::kQuickTimeout);
   return 0;
 }
 
@@ -203,17 +207,15 @@ int runBackground(int argc, char** argv) {
   if (!frames_text.empty())
     request.set_frames(static_cast<uint32_t>(positiveNumber("--frames", frames_text)));
   DaemonClient client(flags);
-  std::unique_ptr<grpc::ClientContext> context = client.context();
   // The daemon answers DEADLINE_EXCEEDED itself when frames stop coming; this bound (cameras at
   // 1 Hz at least) only keeps a daemon that never answers from hanging the command.
-  context->set_deadline(std::chrono::system_clock::now() +
-                        std::chrono::seconds(60 + std::max<uint32_t>(request.frames(), 25)));
   mocap::v1::CaptureBackgroundResponse response;
-  check(client.stub().CaptureBackground(context.get(), request, &response), "CaptureBackground");
+  client.call("CaptureBackground", &DaemonClient::Stub::CaptureBackground, request, response,
+              std::chrono::seconds(60 + std::max<uint32_t>(request.frames(), 25)));
   // What each camera extracts against now, what was doubtful about this capture, and any saved
   // background that could not be used.
   mocap::v1::Status status;
-  check(client.stub().GetStatus(client.context().get(), {}, &status), "GetStatus");
+  client.call("GetStatus", &DaemonClient::Stub::GetStatus, {}, status, DaemonClient::kQuickTimeout);
   nlohmann::json warnings = response.warnings();
   for (const std::string& warning : status.background_warnings()) warnings.push_back(warning);
   nlohmann::json out = {{"frames_used", response.frames_used()},
@@ -237,14 +239,12 @@ int runFitBody(int argc, char** argv) {
   if (!frames_text.empty())
     request.set_frame_sets(static_cast<int32_t>(positiveNumber("--frames", frames_text)));
   DaemonClient client(flags);
-  std::unique_ptr<grpc::ClientContext> context = client.context();
   // The daemon answers DEADLINE_EXCEEDED itself when frames stop coming; this bound (half a second
   // to collect each set and about as much to fit it, slower on a loaded core) only keeps a daemon
   // that never answers from hanging the command.
-  context->set_deadline(std::chrono::system_clock::now() +
-                        std::chrono::seconds(60 + 3 * std::max(request.frame_sets(), 5)));
   mocap::v1::FitBodyResponse response;
-  check(client.stub().FitBody(context.get(), request, &response), "FitBody");
+  client.call("FitBody", &DaemonClient::Stub::FitBody, request, response,
+              std::chrono::seconds(60 + 3 * std::max(request.frame_sets(), 5)));
   nlohmann::ordered_json out = {{"frame_sets_used", response.frame_sets_used()},
                                 {"proportions", nlohmann::ordered_json::object()},
                                 {"scale", response.scale()},

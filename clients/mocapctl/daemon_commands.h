@@ -1,5 +1,6 @@
 // mocapctl subcommands that talk to a running mocapd (each also takes --server HOST:PORT,
-// --token TOKEN or $MOCAP_TOKEN, --tls-ca PEM, and --tls-cert PEM --tls-key PEM).
+// --token TOKEN or $MOCAP_TOKEN, --tls-ca PEM, --tls-cert PEM --tls-key PEM, and --timeout
+// SECONDS).
 #pragma once
 
 namespace mocapctl {

@@ -32,8 +32,10 @@ void printUsage() {
   for (const Command& c : kCommands) std::cerr << "  " << c.usage << "\n";
   std::cerr << "commands that talk to mocapd also take --server HOST:PORT (default "
                "127.0.0.1:50051), --token TOKEN (or $MOCAP_TOKEN), --tls-ca PEM (TLS, trusting "
-               "the daemon's certificate) and --tls-cert PEM --tls-key PEM (this client's, for a "
-               "daemon that asks for one)\n";
+               "the daemon's certificate), --tls-cert PEM --tls-key PEM (this client's, for a "
+               "daemon that asks for one) and --timeout SECONDS (how long a request waits for the "
+               "daemon's answer; by default 10 s to a few minutes, by what it asks; the pose "
+               "stream has no limit)\n";
 }
 
 }  // namespace
