@@ -44,7 +44,8 @@ RecordingControl::RecordingControl(
       rig_(rig),
       cameras_(cameras),
       tracking_(std::move(tracking)),
-      backgrounds_in_use_(std::move(scene_backgrounds)) {
+      backgrounds_in_use_(std::move(scene_backgrounds)),
+      published_(std::make_shared<const RecordingStatus>()) {
   camera_cv_types_.assign(cameras_.size(), -1);
   backgrounds_in_use_.resize(cameras_.size());
   next_frame_sequences_.assign(cameras_.size(), 0);
@@ -71,9 +72,15 @@ RecorderOptions RecordingControl::recorderOptions() const {
   return options;
 }
 
+void RecordingControl::publishLocked(RecordingStatus status) {
+  sets_written_.store(status.frame_sets);
+  published_.store(std::make_shared<const RecordingStatus>(std::move(status)));
+}
+
 RecordingStatus RecordingControl::status() const {
-  std::lock_guard lock(mutex_);
-  return statusLocked();
+  RecordingStatus status = *published_.load();
+  if (status.active) status.frame_sets = sets_written_.load();
+  return status;
 }
 
 RecordingResult RecordingControl::describeCamerasLocked(std::vector<SessionCamera>& cameras) const {
@@ -145,6 +152,7 @@ RecordingResult RecordingControl::start(const std::string& relative_path) {
   started_wall_ns_ = wallNowNs();
   logInfo() << "recording to " << recorder_->sessionPath().string();
   result.status = statusLocked();
+  publishLocked(result.status);
   return result;
 }
 
@@ -178,6 +186,8 @@ RecordingResult RecordingControl::finish(std::unique_ptr<Recorder> recorder,
   {
     std::lock_guard lock(mutex_);
     last_ = status;
+    // A recording started since stop() took this one out is the one to show.
+    if (!recorder_) publishLocked(status);
   }
   const std::string session = recorder->sessionPath().string();
   if (!stats.stopped.empty()) {
@@ -205,11 +215,13 @@ void RecordingControl::tap(const FrameSet& set, uint64_t frame_sequence) {
     if (recorder_ && recorder_->stopped()) {
       stopped_status = statusLocked();
       last_ = stopped_status;  // until finish() has the final count
+      publishLocked(stopped_status);
       stopped = std::move(recorder_);
     } else if (recorder_) {
       SetTruth truth{frame_sequence, {}};
       if (tracking_.truth) truth.dofs = tracking_.truth(frame_sequence);
       recorder_->write(set, std::move(truth));
+      sets_written_.store(recorder_->stats().sets_written);
     }
   }
   // Its writer has already stopped, so closing joins it at once and syncs the index files: the

@@ -9,8 +9,11 @@
 // writers inherit (not the web view's idle one); tap() from the mask thread; noteBackground() from
 // the mask thread (or the pipeline's constructor, before it starts); reserveBodyChange() and
 // releaseBodyChange() from the body-fit job (the requester's thread, the mask or fit thread).
+// status() takes no lock the others wait for, so a reader at idle priority (the web view's
+// /api/status) that is preempted mid-read holds up neither the mask thread nor the writers.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -79,6 +82,8 @@ class RecordingControl {
 
   RecordingResult start(const std::string& relative_path);
   RecordingResult stop();
+  // The recording as last started or closed, with the frame sets written as of the mask thread's
+  // latest tap(); a recorder that stopped on its own shows as stopped from the next tap().
   RecordingStatus status() const;
 
   // Mask thread: notes the cameras' latest frames and records the set while a session is open.
@@ -97,6 +102,8 @@ class RecordingControl {
 
  private:
   RecordingStatus statusLocked() const;
+  // Under mutex_, so what status() reads changes in the order the recording does.
+  void publishLocked(RecordingStatus status);
   RecorderOptions recorderOptions() const;
   // Closes `recorder` (taken out of recorder_), keeps its final status and logs it.
   RecordingResult finish(std::unique_ptr<Recorder> recorder, RecordingStatus status);
@@ -120,6 +127,14 @@ class RecordingControl {
   // frame will have at the least (one past the latest).
   std::vector<std::shared_ptr<const BackgroundModel>> backgrounds_in_use_;
   std::vector<uint64_t> next_frame_sequences_;
+
+  // What status() reads instead of taking mutex_, which the mask thread takes every frame set and
+  // holds while it takes the recorder's lock, which the writers take every set: the status as of
+  // the last start or close (swapped only then, a few times a session; a load holds the pointer
+  // only to count a reference, so even a reader preempted there can only delay such a swap), and
+  // the sets written so far (stored by the mask thread each set, never waiting).
+  std::atomic<std::shared_ptr<const RecordingStatus>> published_;
+  std::atomic<uint64_t> sets_written_{0};
 
   // Held by reserveBodyChange() and by start() throughout, so a recording never opens with one
   // body while the tracker switches to another.

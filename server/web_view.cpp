@@ -64,8 +64,9 @@ std::string readFile(const std::string& path) {
 // leave, so browsers never delay a pose; on a saturated machine the view lags instead. A thread
 // preempted at idle priority while holding a lock would hold up whoever waits for it, so the
 // pipeline's hot paths never wait for a lock the view takes (WebView::offer, CameraImages::keep,
-// PosePublisher::subscriberCount); only a status request or a control, a few a second at most,
-// reads the pipeline's own state under its locks. Threads inherit their creator's policy, so the
+// PosePublisher::subscriberCount, RecordingControl::status, which the mask thread's recorder tap
+// would otherwise wait for); only a status request or a control, a few a second at most, reads
+// the pipeline's other state under its locks. Threads inherit their creator's policy, so the
 // controls that start threads or wait for them (a recording's writers) run on the control thread,
 // at the daemon's policy: a writer at idle priority barely runs on a saturated machine, and a
 // recording's stop would wait minutes for it.

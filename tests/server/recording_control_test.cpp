@@ -1,12 +1,16 @@
 // The daemon's recordings by image mode and on a filling disk: a start refused under the free-space
 // floor, a recording stopped at it with a status, and replays of compressed sessions and of
-// sessions without images.
+// sessions without images; and the recording control's status, read without its lock.
+#include "server/recording_control.h"
+
 #include <sys/mount.h>
 
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <mutex>
 #include <string>
@@ -19,15 +23,16 @@
 #include "drivers/record/session_reader.h"
 #include "server/mocap_server.h"
 #include "server/server_test_support.h"
+#include "tracker/model/builtin_models.h"
 
 namespace mocap {
 namespace {
 
 namespace fs = std::filesystem;
-using ::testing::HasSubstr;
 using test::EndToEndTest;
 using test::freshDirectory;
 using test::startServer;
+using ::testing::HasSubstr;
 
 // The answer to StartRecording once the cameras have sent frames (retried while they have not).
 grpc::Status startWhenCamerasAre(v1::MocapService::Stub& stub, const std::string& path) {
@@ -168,6 +173,80 @@ TEST_F(EndToEndTest, ReplaysACompressedSessionCloseToItsRecordedSilhouettes) {
               agreement);
   EXPECT_GE(agreement, 0.9);  // extracted from the JPEG images instead of the captured ones
   EXPECT_GT(poses, 30u);
+}
+
+// The web view reads the status on a thread at idle priority: were the read to take the lock the
+// mask thread's tap() takes every frame set (and holds while it takes the recorder's, which its
+// writers take), a view thread preempted inside it would stall the mask thread. A status read
+// completes while tap() is inside that lock, and says what the recording is before, during and
+// after.
+TEST(RecordingControl, ReadsTheStatusWithoutTheControlLock) {
+  const fs::path root = freshDirectory("status_without_lock");
+  ServerConfig config;
+  config.recording_directory = fs::canonical(root).string();
+  config.recording.min_free_mb = 0;
+  std::vector<OpenedCamera> cameras(1);
+  cameras[0].info.id = "gray";
+  cameras[0].config.width = 8;
+  cameras[0].config.height = 8;
+  cameras[0].config.fps = 25;
+  const BodyModel body = builtinHandModel();
+  // tap() asks for a recorded set's truth under the control lock: once block_next is set, the
+  // next set's truth waits there until released.
+  std::atomic<bool> block_next{false};
+  std::promise<void> inside_tap, release_tap;
+  std::shared_future<void> released = release_tap.get_future().share();
+  RecordedTracking tracking;
+  tracking.configured_body = &body;
+  tracking.tracked_body = [] { return TrackedBody{}; };
+  tracking.truth = [&](uint64_t) {
+    if (block_next.exchange(false)) {
+      inside_tap.set_value();
+      released.wait();
+    }
+    return Eigen::VectorXd(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(body.dofs.size())));
+  };
+  const Rig rig;
+  RecordingControl recording(config, rig, cameras, std::move(tracking), {});
+  uint64_t sequence = 0;
+  const auto tap = [&] {
+    FrameSet set;
+    set.frames.push_back(Frame{0, ++sequence, 0, 0, false, cv::Mat(8, 8, CV_8UC1, cv::Scalar(0))});
+    recording.tap(set, sequence);
+  };
+  tap();  // the camera's first frame: a session can describe it from now on
+  EXPECT_FALSE(recording.status().active);
+
+  const RecordingResult started = recording.start("take");
+  ASSERT_EQ(started.error, RecordingError::kNone) << started.message;
+  RecordingStatus status = recording.status();
+  EXPECT_TRUE(status.active);
+  EXPECT_EQ(status.path, "take");
+  tap();
+
+  block_next = true;
+  std::thread mask_thread(tap);
+  inside_tap.get_future().wait();  // tap() now holds the control lock
+  std::future<RecordingStatus> read =
+      std::async(std::launch::async, [&] { return recording.status(); });
+  // Not a speed bound: only turns a read that waits for the lock (for ever, here) into a failure.
+  const bool answered = read.wait_for(std::chrono::seconds(30)) == std::future_status::ready;
+  release_tap.set_value();
+  mask_thread.join();
+  ASSERT_TRUE(answered) << "status() waited for the lock tap() holds";
+  status = read.get();
+  EXPECT_TRUE(status.active);
+  EXPECT_EQ(status.path, "take");
+
+  const RecordingResult stopped = recording.stop();
+  ASSERT_EQ(stopped.error, RecordingError::kNone) << stopped.message;
+  EXPECT_EQ(stopped.status.frame_sets, 2u);
+  status = recording.status();
+  EXPECT_FALSE(status.active);
+  EXPECT_EQ(status.path, "take");
+  EXPECT_EQ(status.frame_sets, 2u);
+  EXPECT_TRUE(status.stopped.empty()) << status.stopped;
+  fs::remove_all(root);
 }
 
 }  // namespace
