@@ -132,6 +132,7 @@ void Pipeline::makeTrackerFilter(bool in_fit_pose) {
     // lab path) has none, as in the experiment.
     acquiring_options.challenge_every = finds_subject_ ? config_.tracker.challenge_every : 0;
     acquiring_options.trial_drop_margin = config_.tracker.trial_drop_margin;
+    acquiring_options.search.uncross = options.refine.uncross;
     const BodyModel& body = *body_.model;
     std::vector<Eigen::VectorXd> stances = acquisitionStances(body);
     if (in_fit_pose && body.fit_pose) stances.push_back(body.stancePose(*body.fit_pose));

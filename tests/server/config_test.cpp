@@ -121,6 +121,7 @@ TEST(ConfigTest, APersonGetsThePeopleDefaultsUnlessTheTrackerSaysOtherwise) {
   EXPECT_FALSE(person.tracker.filter.refine.swap.enabled);  // measured, not kept (docs/human.md)
   EXPECT_EQ(person.tracker.filter.refine.restart_share, 0.14);
   EXPECT_EQ(person.tracker.filter.refine.facing_prior, 16);
+  EXPECT_EQ(person.tracker.filter.refine.uncross, 10);
 
   const ServerConfig tuned = parseConfig(
       cameras + "body_model: builtin:human\ntracker: {evaluations: 800, refine_hold: false}\n",
@@ -255,6 +256,7 @@ TEST(ConfigTest, BadValuesNameFileLineFieldAndReason) {
       {cameras + "tracker: {refine_restarts: 2}\n",
        "tracker.refine_restarts: must be between 0 and 1"},
       {cameras + "tracker: {refine_facing_prior: -1}\n", "tracker.refine_facing_prior: must be"},
+      {cameras + "tracker: {refine_uncross: -1}\n", "tracker.refine_uncross: must be"},
       {cameras + "tracker: {refine_unexplained: often}\n", "tracker.refine_unexplained"},
       {cameras + "tracker: {dofs: arms}\n", "tracker.dofs: expected all or gait, got 'arms'"},
       {cameras + "tracker: {start: somewhere}\n",

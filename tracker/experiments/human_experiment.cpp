@@ -225,6 +225,7 @@ TrackerUnderTest makeTracker(const HumanExperimentConfig& config, const BodyMode
   acquiring_options.lost_after = config.lost_after;
   acquiring_options.challenge_every = config.challenge_every;
   acquiring_options.trial_drop_margin = config.trial_drop_margin;
+  acquiring_options.search.uncross = options.refine.uncross;
   auto acquiring =
       std::make_unique<AcquiringFilter>(tracked, rig, acquisitionStances(tracked),
                                         options.likelihood, makeTrackerFilter, acquiring_options);
@@ -267,6 +268,8 @@ void describeFilter(const HumanExperimentConfig& config, const FilterOptions& op
   out["refine_swap_knees_only"] = swap && options.refine.swap.knees_only;
   out["refine_swap_margin"] = swap ? options.refine.swap.margin : 0.0;
   out["refine_restart_share"] = refined ? options.refine.restart_share : 0.0;
+  // Acquisition and its trials charge the crossed feet whatever the method (AcquireOptions).
+  out["refine_uncross"] = options.refine.uncross;
 }
 
 void describeProportions(const BodyProportions& proportions, const char* key, nlohmann::json& out) {

@@ -152,6 +152,10 @@ const std::vector<FilterOptionKey> kKeys = {
      "refinement: weight of the prior that the pelvis faces where the legs do",
      [](FilterOptions& o, const std::string& t) { o.refine.facing_prior = realIn(t, 0, 1e6); },
      [](const FilterOptions& o) { return shortestText(o.refine.facing_prior); }},
+    {"refine_uncross", "0-1000000",
+     "refinement: weight of the cost on crossed feet, and the move that uncrosses them",
+     [](FilterOptions& o, const std::string& t) { o.refine.uncross = realIn(t, 0, 1e6); },
+     [](const FilterOptions& o) { return shortestText(o.refine.uncross); }},
     {"refine_unexplained", "true|false",
      "refinement: aim the legs at the silhouette the pose leaves unexplained",
      [](FilterOptions& o, const std::string& t) { o.refine.unexplained = boolean(t); },
@@ -216,6 +220,7 @@ FilterOptions humanFilterDefaults() {
   options.refine.plant = true;
   options.refine.restart_share = 0.14;
   options.refine.facing_prior = 16;
+  options.refine.uncross = 10;
   return options;
 }
 

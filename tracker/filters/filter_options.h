@@ -83,6 +83,15 @@ struct RefineOptions {
   // drifts by tens of degrees over a walk. Unlike a prior on the heading's change, it does not hold
   // back a subject who turns. 0: off.
   double facing_prior = 0;
+  // For a model with two `feet`: the weight of a cost on the feet crossed over in the body's own
+  // frame, and each frame, if they cross at all, a move that gives each leg the other's foot. Two
+  // views of a stride fit nearly as well with the legs' labels exchanged and the legs crossed to
+  // reach the same feet; no step of one leg gets from there to the uncrossed twin, and without the
+  // cost the likelihood barely tells them apart. The refinement scores a pose by its
+  // log-likelihood less W (max(0, c - 0.15) / 0.1)^2, c how far the feet have passed each other
+  // along the line through the hips, in metres (tracker/filters/refine/uncross.h); a tracker that
+  // finds the subject charges it to every pose it scores too (AcquireOptions::uncross). 0: off.
+  double uncross = 0;
 };
 
 struct FilterOptions {
@@ -137,7 +146,8 @@ void validateFilterOptions(const FilterOptions& options);
 // the budget on the full-body refinement, which also turns segments with their ball-joint children
 // held and restarts one limb per frame with 14 % of the refinement (32 random draws at 2000
 // evaluations; walk seeds 1-6), and scores poses with the facing prior (weight 16; walk and hop
-// seeds 7-24, checked on 61-96). The paper has no look-ahead, injects one DOF into 2 % and does not
+// seeds 7-24, checked on 61-96) and the crossed feet's cost with its move (weight 10; the product
+// path's development subjects). The paper has no look-ahead, injects one DOF into 2 % and does not
 // refine. See docs/human.md.
 FilterOptions humanFilterDefaults();
 // The paper's budget for the full 31-DOF body (§8), the experiments' and the daemon's default.

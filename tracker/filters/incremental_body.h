@@ -38,6 +38,8 @@ class IncrementalBodyEvaluator {
   PixelCounts trial(const Eigen::VectorXd& q);
   void accept();
   void reject();
+  // Every segment placed at the pending trial's pose, else at the current pose.
+  const KinematicsData& kinematics() const { return kinematics_; }
 
   const PixelCounts& counts() const { return counts_; }
   // The current pose's footprint of every segment with a shape, in camera c (model order).

@@ -75,6 +75,11 @@ double wrapInto(double angle, const Dof& dof) {
   return std::clamp(angle, dof.min, dof.max);
 }
 
+void checkUncross(const AcquireOptions& options) {
+  if (!(options.uncross >= 0 && std::isfinite(options.uncross)))
+    throw std::invalid_argument("acquisition: the crossed feet's weight (uncross) must be >= 0");
+}
+
 void checkAcquireArguments(const BodyModel& model, const Rig& rig,
                            const std::vector<SilhouetteMask>& masks,
                            const std::vector<Eigen::VectorXd>& stances,
@@ -88,6 +93,7 @@ void checkAcquireArguments(const BodyModel& model, const Rig& rig,
       throw std::invalid_argument("acquisition: a stance has the wrong number of DOFs");
   if (options.headings < 1 || options.searched_headings < 1 || options.search_evaluations < 0)
     throw std::invalid_argument("acquisition: headings and searched headings must be >= 1");
+  checkUncross(options);
 }
 
 // The point nearest every silhouette's centroid ray. Nothing, and the reason in `why`, when fewer
@@ -220,10 +226,12 @@ std::vector<Acquisition> acquireSubject(const BodyModel& model, const Rig& rig,
 
   FullBodyEvaluator evaluator(model, rig, likelihood.points_per_circle, 1);
   KinematicsData kinematics(model);
+  const CrossedLegs crossed = findCrossedLegs(model, options.uncross);
   int evaluations = 0;
   auto score = [&](const Eigen::VectorXd& q) {
     ++evaluations;
-    return logLikelihood(likelihood, evaluator.evaluate(q, masks, 0));
+    return logLikelihood(likelihood, evaluator.evaluate(q, masks, 0)) -
+           crossed.cost(model, kinematics, q);
   };
   // A stance at heading h, moved so its centroid is the triangulated point.
   auto placed = [&](const Eigen::VectorXd& stance, double heading) {
@@ -289,8 +297,11 @@ AcquiringFilter::AcquiringFilter(const BodyModel& model, const Rig& rig,
       likelihood_(likelihood),
       make_filter_(std::move(make_filter)),
       options_(options),
-      scorer_(model, rig, likelihood.points_per_circle, 1) {
+      scorer_(model, rig, likelihood.points_per_circle, 1),
+      crossing_(model) {
   if (!canAcquire(model)) throw std::invalid_argument("acquisition: " + whyCannotAcquire(model));
+  checkUncross(options.search);
+  crossed_ = findCrossedLegs(model, options.search.uncross);
   if (options.trial_frames < 1)
     throw std::invalid_argument("acquisition: trial frames must be >= 1");
   if (!(options.lost_below >= 0 && options.lost_below < 1))
@@ -380,7 +391,7 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
     h.filter->setYield(trial ? std::function<bool()>() : yield_);
     FrameEstimate e = h.filter->step(masks);
     const PixelCounts counts = scorer_.evaluate(e.q, masks, 0);
-    h.score += logLikelihood(likelihood_, counts);
+    h.score += logLikelihood(likelihood_, counts) - crossed_.cost(model_, crossing_, e.q);
     evaluations += e.evaluations + 1;
     renders += e.segment_renders + scorer_.drawnSegments();
     cut_short = cut_short || e.cut_short;
@@ -450,7 +461,9 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
     // The subject is found again on this frame's masks beside the track (another thread: live,
     // while the tracker waits for the next set), and the starts join the next frame's trial.
     challenge_ = std::async(std::launch::async,
-                            [this, masks, track_score = logLikelihood(likelihood_, ahead_counts)] {
+                            [this, masks,
+                             track_score = logLikelihood(likelihood_, ahead_counts) -
+                                           crossed_.cost(model_, crossing_, ahead.q)] {
                               Challenge c;
                               c.found = acquireSubject(model_, rig_, masks, stances_, likelihood_,
                                                        options_.search, &c.why_not);

@@ -20,6 +20,7 @@
 #include <optional>
 
 #include "tracker/filters/filter.h"
+#include "tracker/filters/refine/uncross.h"
 #include "tracker/likelihood/full_body.h"
 #include "tracker/likelihood/likelihood.h"
 #include "tracker/likelihood/silhouette_mask.h"
@@ -34,6 +35,10 @@ struct AcquireOptions {
   int search_evaluations = 120;  // per searched heading: the root's place and heading
   int fit_evaluations = 600;     // per searched heading, then: every free DOF
   long min_silhouette_pixels = 400;  // a camera with fewer sees no subject
+  // The weight of the crossed feet's cost (FilterOptions::refine_uncross, the tracker's), charged
+  // to every pose scored here and, by AcquiringFilter, to every estimate a trial sums: a
+  // hypothesis crossed to fit the silhouettes must not win on them. 0: none.
+  double uncross = 0;
 };
 
 struct Acquisition {
@@ -157,6 +162,8 @@ class AcquiringFilter final : public PoseFilter {
   FilterFactory make_filter_;
   AcquiringOptions options_;
   FullBodyEvaluator scorer_;
+  CrossedLegs crossed_;      // options_.search.uncross's cost, charged to the trials' scores
+  KinematicsData crossing_;  // scratch of that cost
   std::function<bool()> yield_;
   std::vector<Hypothesis> hypotheses_;  // one once decided, several during a trial
   bool searching_ = true;  // the next step acquires (hypotheses_ holds the lost filter, if any)

@@ -415,6 +415,10 @@ TEST(Acquire, BadOptionsAreRefusedByName) {
   EXPECT_THAT(refusal(acquiring), HasSubstr("drop margin"));
   acquiring.trial_drop_margin = 40;
   EXPECT_EQ(refusal(acquiring), "accepted");
+  acquiring.search.uncross = -1;
+  EXPECT_THAT(refusal(acquiring), HasSubstr("uncross"));
+  acquiring.search.uncross = std::nan("");
+  EXPECT_THAT(refusal(acquiring), HasSubstr("uncross"));
 }
 
 }  // namespace

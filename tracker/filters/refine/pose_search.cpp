@@ -7,18 +7,21 @@
 namespace mocap {
 
 PoseSearch::PoseSearch(const BodyModel& model, const FilterOptions& options,
-                       const FacingPrior& facing, IncrementalBodyEvaluator& evaluator)
-    : model_(model), options_(options), facing_(facing), evaluator_(evaluator) {}
+                       const FacingPrior& facing, const CrossedLegs& crossed,
+                       IncrementalBodyEvaluator& evaluator)
+    : model_(model), options_(options), facing_(facing), crossed_(crossed), evaluator_(evaluator) {}
 
 double PoseSearch::start(const Eigen::VectorXd& q, const std::vector<SilhouetteMask>& masks,
                          int budget) {
   budget_ = budget;
-  return logLikelihood(options_.likelihood, evaluator_.reset(q, masks)) - facing_.cost(q);
+  return logLikelihood(options_.likelihood, evaluator_.reset(q, masks)) - facing_.cost(q) -
+         crossed_.cost(evaluator_.kinematics());
 }
 
 double PoseSearch::trialScore(const Eigen::VectorXd& pose) {
   --budget_;
-  return logLikelihood(options_.likelihood, evaluator_.trial(pose)) - facing_.cost(pose);
+  return logLikelihood(options_.likelihood, evaluator_.trial(pose)) - facing_.cost(pose) -
+         crossed_.cost(evaluator_.kinematics());
 }
 
 bool PoseSearch::tryPose(const Eigen::VectorXd& pose, Eigen::VectorXd& at, double& value) {

@@ -1,5 +1,5 @@
 // The refinement's trial machinery, shared by its sweep and its moves: a pose is scored on the
-// incremental full-body evaluator (log-likelihood less the facing prior) as one evaluation of the
+// incremental full-body evaluator (log-likelihood less the priors) as one evaluation of the
 // frame's budget, then kept as the evaluator's current pose or dropped.
 #pragma once
 
@@ -11,6 +11,7 @@
 #include "tracker/filters/filter.h"
 #include "tracker/filters/incremental_body.h"
 #include "tracker/filters/refine/facing_prior.h"
+#include "tracker/filters/refine/uncross.h"
 
 namespace mocap {
 
@@ -30,7 +31,7 @@ class PoseSearch {
 
   // All borrowed; they must outlive the search.
   PoseSearch(const BodyModel& model, const FilterOptions& options, const FacingPrior& facing,
-             IncrementalBodyEvaluator& evaluator);
+             const CrossedLegs& crossed, IncrementalBodyEvaluator& evaluator);
 
   // Makes q the evaluator's current pose against `masks`, with `budget` evaluations to spend
   // after it, and returns q's score.
@@ -39,7 +40,8 @@ class PoseSearch {
   IncrementalBodyEvaluator& evaluator() { return evaluator_; }
 
   // The score of `pose`, as the evaluator's trial (to accept or reject), counted as one
-  // evaluation of the budget: its log-likelihood less the facing prior.
+  // evaluation of the budget: its log-likelihood less the facing prior and the crossed feet's
+  // cost.
   double trialScore(const Eigen::VectorXd& pose);
   // Scores `pose` as one evaluation of the budget. If it beats `value`, it becomes the evaluator's
   // current pose, `at` and `value`; otherwise the evaluator goes back to `at`.
@@ -61,6 +63,7 @@ class PoseSearch {
   const BodyModel& model_;
   const FilterOptions& options_;
   const FacingPrior& facing_;
+  const CrossedLegs& crossed_;
   IncrementalBodyEvaluator& evaluator_;
   int budget_ = 0;
   Eigen::VectorXd tried_;      // scratch of stepDof()

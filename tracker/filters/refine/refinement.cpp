@@ -16,7 +16,7 @@ Refinement::Refinement(const BodyModel& model, const Rig& rig, const FilterOptio
       options_(options),
       plan_(plan),
       evaluator_(model, rig, options.likelihood.points_per_circle, &pool),
-      search_(model, options, plan.facing, evaluator_),
+      search_(model, options, plan.facing, plan.crossed, evaluator_),
       steps_(plan.dofs.size()),
       hold_steps_(plan.dofs.size()),
       chase_(model),
@@ -48,6 +48,8 @@ void Refinement::runMoves(const std::vector<SilhouetteMask>& masks, std::mt19937
              move_, q, best);
   if (options_.refine.unexplained)
     chaseUnexplained(model_, rig_, plan_.legs, masks, search_, chase_, q, best);
+  if (plan_.crossed.weight > 0)
+    uncrossLegs(model_, plan_.crossed, plan_.legs, plant_, search_, move_, q, best);
 }
 
 void Refinement::patternSearch(const std::function<bool()>& yield, Eigen::VectorXd& q, double& best,

@@ -1,8 +1,8 @@
 // The factored filter's full-body refinement (FilterOptions::refine_share): after the layers, a
 // pattern search on the full-body likelihood from the best particle, preceded each frame by the
 // moves a local search cannot make (restart a limb, swap the legs, chase the unexplained
-// silhouette) and helped by the hold and plant steps and the facing prior. Each pose tried counts
-// as one full-body evaluation, but only the segments it moves are re-rasterized
+// silhouette, uncross the feet) and helped by the hold and plant steps and the priors. Each pose
+// tried counts as one full-body evaluation, but only the segments it moves are re-rasterized
 // (IncrementalBodyEvaluator, exact).
 #pragma once
 
@@ -55,9 +55,9 @@ class Refinement {
   std::vector<double> steps_;       // per refined DOF
   std::vector<double> hold_steps_;  // per refined DOF, of its held or planted step
   Eigen::VectorXd tried_, sweep_start_;
-  MoveScratch move_;  // scratch of the restart and the swap
+  MoveScratch move_;  // scratch of the restart, the swap and the uncrossing
   ChaseData chase_;
-  LegData plant_;  // scratch of the planted steps
+  LegData plant_;  // scratch of the planted steps and the uncrossing
 };
 
 }  // namespace mocap

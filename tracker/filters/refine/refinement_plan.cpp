@@ -14,12 +14,14 @@ RefinementPlan makeRefinementPlan(const BodyModel& model, const FilterOptions& o
   plan.dofs = std::move(dofs);
   plan.held.resize(plan.dofs.size());
   if (options.refine.hold) plan.held = findHeldChildren(model, plan.dofs);
-  if (options.refine.plant || options.refine.unexplained) plan.legs = findLegs(model);
+  if (options.refine.plant || options.refine.unexplained || options.refine.uncross > 0)
+    plan.legs = findLegs(model);
   if (options.refine.swap.enabled)
-    plan.swap = findSwappedLegs(model, options.refine.swap.knees_only);
+    plan.swap = findSwappedLegs(model, options.refine.swap.knees_only, "refine_swap");
   if (options.refine.restart_share > 0) plan.restart_limbs = findRestartLimbs(model, descendants);
   if (options.refine.facing_prior > 0)
     plan.facing = makeFacingPrior(model, options.refine.facing_prior);
+  plan.crossed = findCrossedLegs(model, options.refine.uncross);
   // Each draw is followed by up to 3 poses of local search.
   plan.restart_draws =
       static_cast<int>(std::lround(options.refine.restart_share * evaluations / 4));

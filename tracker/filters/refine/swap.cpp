@@ -9,9 +9,9 @@
 
 namespace mocap {
 
-LegSwap findSwappedLegs(const BodyModel& model, bool knees_only) {
-  const auto fail = [](const std::string& why) {
-    throw std::invalid_argument("factored filter: refine_swap: " + why);
+LegSwap findSwappedLegs(const BodyModel& model, bool knees_only, const std::string& option) {
+  const auto fail = [&](const std::string& why) {
+    throw std::invalid_argument("factored filter: " + option + ": " + why);
   };
   if (model.feet.size() != 2)
     fail("the body model names " + std::to_string(model.feet.size()) + " feet, not two");

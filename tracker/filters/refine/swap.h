@@ -4,6 +4,7 @@
 // (which leg is in front), and no step of one leg gets from one to the other.
 #pragma once
 
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -23,8 +24,9 @@ struct LegSwap {
 
 // Each foot's leg (its grandparent, parent and itself), DOF by DOF in model order, paired with the
 // other's: all of them searched, the knees' alone exchanged with `knees_only`. Throws
-// std::invalid_argument unless the model has two feet with the same free DOFs per segment.
-LegSwap findSwappedLegs(const BodyModel& model, bool knees_only);
+// std::invalid_argument naming `option` (the filter option that asked) unless the model has two
+// feet with the same free DOFs per segment.
+LegSwap findSwappedLegs(const BodyModel& model, bool knees_only, const std::string& option);
 
 // The pose with the legs' angles exchanged, searched locally on them (up to 2 poses per leg
 // angle); kept in q and `best` if it beats the pose by `margin` (log-likelihood), otherwise the
