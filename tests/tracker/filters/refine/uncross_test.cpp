@@ -93,7 +93,7 @@ TEST(FactoredFilter, CrossedFeetCostWhatTheyCrossBeyondTheMargin) {
       const double expected = 0.84 * (std::sin(r_in * kDeg) + std::sin(l_in * kDeg)) - 0.2;
       forwardKinematics(model, kinematics, q);
       EXPECT_NEAR(crossed.crossing(kinematics), expected, 1e-9);
-      const double over = std::max(0.0, expected - CrossedLegs::kFreeCrossing) / 0.1;
+      const double over = std::max(0.0, expected - CrossedLegs::kFreeCrossing) / CrossedLegs::kUnit;
       EXPECT_NEAR(crossed.cost(kinematics), 10 * over * over, 1e-9);
       EXPECT_EQ(crossed.cost(model, kinematics, q), crossed.cost(kinematics));
     }
