@@ -40,6 +40,8 @@ class MocapServer {
   int port() const { return port_; }  // the bound port (useful with "host:0")
   // The web view's bound port; 0 when it is off or could not listen.
   int webPort() const { return web_ ? web_->port() : 0; }
+  // The web view; null when it is off. For tests.
+  WebView* webView() { return web_.get(); }
   const BodyModel& model() const { return *model_; }
   Pipeline& pipeline() { return *pipeline_; }
 
@@ -76,7 +78,7 @@ class MocapServer {
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<MocapServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;
-  std::unique_ptr<WebView> web_;  // null when web.enabled is false
+  std::unique_ptr<WebView> web_;    // null when web.enabled is false
   std::unique_ptr<VmcSender> vmc_;  // null without vmc.send_to
   int port_ = 0;
   bool shut_down_ = false;

@@ -40,6 +40,9 @@ constexpr std::string_view kWaiting = ": waiting\n\n";
 // The controls answer when the pipeline has: a background capture of up to 1500 frames, a fit of
 // up to 250 frame sets.
 constexpr auto kControlTimeout = std::chrono::minutes(5);
+// The status is read in microseconds; a pipeline that has not answered in this long is stuck, and
+// the request answers 503 rather than hold its thread (the page asks again a second later).
+constexpr auto kStatusTimeout = std::chrono::seconds(2);
 // The RPCs' limits (server/mocap_service.cpp).
 constexpr int kMaxBackgroundFrames = 1500;
 constexpr int kDefaultBackgroundFrames = 25;
@@ -65,11 +68,11 @@ std::string readFile(const std::string& path) {
 // preempted at idle priority while holding a lock would hold up whoever waits for it, so the
 // pipeline's hot paths never wait for a lock the view takes (WebView::offer, CameraImages::keep,
 // PosePublisher::subscriberCount, RecordingControl::status, which the mask thread's recorder tap
-// would otherwise wait for); only a status request or a control, a few a second at most, reads
-// the pipeline's other state under its locks. Threads inherit their creator's policy, so the
-// controls that start threads or wait for them (a recording's writers) run on the control thread,
-// at the daemon's policy: a writer at idle priority barely runs on a saturated machine, and a
-// recording's stop would wait minutes for it.
+// would otherwise wait for), and the status, which takes the pipeline's locks, is read on the
+// status thread at the daemon's policy. Threads inherit their creator's policy, so the controls
+// that start threads or wait for them (a recording's writers) run on the control thread, at the
+// daemon's policy: a writer at idle priority barely runs on a saturated machine, and a recording's
+// stop would wait minutes for it.
 void becomeAViewThread() {
   nameThisThread(kThreadName);
   const sched_param no_priority{};
@@ -250,6 +253,8 @@ Status WebView::start() {
   subscribed_ = publisher_.subscribe(this);
   control_thread_ = std::make_unique<httplib::ThreadPool>(1);
   control_thread_->enqueue([] { nameThisThread("mocapd-control"); });
+  status_thread_ = std::make_unique<httplib::ThreadPool>(1);
+  status_thread_->enqueue([] { nameThisThread("mocapd-status"); });
   listener_ = std::thread([this] {
     becomeAViewThread();
     server_->listen_after_bind();
@@ -269,9 +274,12 @@ void WebView::stop() {
     server_->stop();
     listener_.join();
   }
-  // After the server's threads: none can enqueue a control any more, and the queued ones finish.
+  // After the server's threads: none can enqueue a control or a status read any more, and the
+  // queued ones finish.
   if (control_thread_) control_thread_->shutdown();
   control_thread_.reset();
+  if (status_thread_) status_thread_->shutdown();
+  status_thread_.reset();
 }
 
 // On the publisher's thread, which never waits for the view: if a view thread holds the slot
@@ -302,6 +310,21 @@ std::shared_ptr<const std::string> WebView::poseEvent(const SharedPose& pose, ui
     event_count_ = count;
   }
   return newest_event_;
+}
+
+std::shared_future<PipelineStatus> WebView::readPipelineStatus() {
+  std::lock_guard lock(status_mutex_);
+  const bool under_way = status_read_.valid() && status_read_.wait_for(std::chrono::seconds(0)) !=
+                                                     std::future_status::ready;
+  if (!under_way) {
+    auto read = std::make_shared<std::packaged_task<PipelineStatus()>>([this] {
+      if (status_read_observer_) status_read_observer_();
+      return pipeline_.status();
+    });
+    status_read_ = read->get_future().share();
+    status_thread_->enqueue([read] { (*read)(); });
+  }
+  return status_read_;
 }
 
 bool WebView::authorized(const httplib::Request& request, httplib::Response& response) const {
@@ -347,13 +370,19 @@ void WebView::addRoutes() {
   });
   server.Get("/api/status", [this](const httplib::Request& request, httplib::Response& response) {
     if (!authorized(request, response)) return;
+    const std::shared_future<PipelineStatus> status = readPipelineStatus();
+    if (status.wait_for(kStatusTimeout) != std::future_status::ready)
+      return replyResult(
+          response, 503,
+          "no status from the pipeline in " + std::to_string(kStatusTimeout.count()) + " s");
     int clients = 0;
     {
       std::lock_guard lock(pose_mutex_);
       clients = stream_clients_;
     }
+    // The JSON is built here, at the view's priority: only the read needs the daemon's.
     response.set_header("Cache-Control", "no-store");
-    response.set_content(statusJson(config_, pipeline_.status(), pipeline_.cameras(),
+    response.set_content(statusJson(config_, status.get(), pipeline_.cameras(),
                                     publisher_.subscriberCount() - (subscribed_ ? 1 : 0),
                                     static_cast<std::size_t>(clients)),
                          kJsonType);

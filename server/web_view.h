@@ -13,6 +13,8 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -54,6 +56,12 @@ class WebView final : public PoseSubscriber {
   void offer(const SharedPose& pose) override;
   void finish() override;
 
+  // A seam for tests: called on the thread that reads the pipeline's status, just before it reads
+  // it. Set it before the first status request.
+  void setStatusReadObserver(std::function<void()> observer) {
+    status_read_observer_ = std::move(observer);
+  }
+
  private:
   void addRoutes();
   void addControlRoutes();
@@ -61,6 +69,10 @@ class WebView final : public PoseSubscriber {
   void streamPoses(httplib::Response& response);
   // The event of pose number `count`, serialized by the first stream that asks for it.
   std::shared_ptr<const std::string> poseEvent(const SharedPose& pose, uint64_t count);
+  // The pipeline's status, read on the status thread. A request that comes while a read is under
+  // way shares that read rather than queueing another: concurrent requests cost one read, and a
+  // pipeline that does not answer holds up at most one task.
+  std::shared_future<PipelineStatus> readPipelineStatus();
   // False (and the response filled with 401) when a token is configured and the request does
   // not carry it ("Authorization: Bearer <token>").
   bool authorized(const httplib::Request& request, httplib::Response& response) const;
@@ -76,6 +88,13 @@ class WebView final : public PoseSubscriber {
   // stop): what they start inherits the caller's scheduling policy, which must be the daemon's,
   // not the view's idle one. Started by start(), on the daemon's thread.
   std::unique_ptr<httplib::TaskQueue> control_thread_;
+  // Reads the pipeline's status for /api/status (mocapd-status), at the daemon's policy: the
+  // status takes the pipeline's own locks (the synchronizer's, the hand-offs', the meters'), which
+  // a view thread preempted at idle priority would hold while a camera or a stage waits. Its own
+  // thread, so that a recording's stop on the control thread (seconds) does not delay it. Started
+  // by start(), on the daemon's thread.
+  std::unique_ptr<httplib::TaskQueue> status_thread_;
+  std::function<void()> status_read_observer_;
   int port_ = 0;
   bool subscribed_ = false;
 
@@ -91,6 +110,10 @@ class WebView final : public PoseSubscriber {
   std::mutex event_mutex_;
   std::shared_ptr<const std::string> newest_event_;
   uint64_t event_count_ = 0;
+
+  // The status read under way or last done, shared by the requests that come meanwhile.
+  std::mutex status_mutex_;
+  std::shared_future<PipelineStatus> status_read_;
 };
 
 }  // namespace mocap

@@ -3,6 +3,7 @@
 // turned off, and the page in headless Chromium (when installed), whose screenshot must show the
 // tracked outline over the subject and a rendered 3D view.
 #include <chrono>
+#include <condition_variable>
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -31,6 +33,7 @@
 #include <httplib.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <pthread.h>
 #include <sched.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -222,6 +225,119 @@ TEST_F(WebViewTest, ARecordingsWritersKeepTheDaemonsPolicy) {
   fs::remove_all(root);
 }
 
+// Where the view read the pipeline's status, each time it did; and a gate that holds the reads
+// while held, as a pipeline that does not answer would. Let go when destroyed, so that the view
+// can stop however the test ends.
+class StatusReads {
+ public:
+  struct Read {
+    int policy;
+    std::string thread;
+  };
+
+  explicit StatusReads(WebView& view) {
+    view.setStatusReadObserver([state = state_] {
+      char name[16] = {};
+      pthread_getname_np(pthread_self(), name, sizeof name);
+      std::unique_lock lock(state->mutex);
+      state->reads.push_back({sched_getscheduler(0), name});
+      state->changed.wait(lock, [&] { return !state->held; });
+    });
+  }
+  ~StatusReads() { hold(false); }
+  StatusReads(const StatusReads&) = delete;
+  StatusReads& operator=(const StatusReads&) = delete;
+
+  void hold(bool held) {
+    std::lock_guard lock(state_->mutex);
+    state_->held = held;
+    state_->changed.notify_all();
+  }
+  std::vector<Read> all() const {
+    std::lock_guard lock(state_->mutex);
+    return state_->reads;
+  }
+
+ private:
+  // Shared with the observer, which the view keeps after the test's object is gone.
+  struct State {
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::vector<Read> reads;
+    bool held = false;
+  };
+  std::shared_ptr<State> state_ = std::make_shared<State>();
+};
+
+// The status takes the pipeline's locks (the synchronizer's, the hand-offs', the meters'): read on
+// a view thread at idle priority, one preempted inside them would hold up a camera or a stage.
+TEST_F(WebViewTest, TheStatusIsReadAtTheDaemonsPolicy) {
+  start();
+  StatusReads status_reads(*server_->webView());
+  auto status = client_->Get("/api/status");
+  ASSERT_TRUE(status);
+  ASSERT_EQ(status->status, 200);
+  EXPECT_EQ(json::parse(status->body)["cameras"].size(), 2u);
+  // Concurrent requests, each answered, each read on the same thread.
+  std::vector<std::thread> browsers;
+  std::vector<int> codes(6, 0);
+  for (std::size_t i = 0; i < codes.size(); ++i) {
+    browsers.emplace_back([this, &codes, i] {
+      httplib::Client browser("127.0.0.1", server_->webPort());
+      browser.set_read_timeout(10, 0);
+      if (auto answer = browser.Get("/api/status")) codes[i] = answer->status;
+    });
+  }
+  for (std::thread& browser : browsers) browser.join();
+  for (int code : codes) EXPECT_EQ(code, 200);
+  const std::vector<StatusReads::Read> reads = status_reads.all();
+  ASSERT_GE(reads.size(), 2u);
+  ASSERT_LE(reads.size(), 1 + codes.size());
+  for (const StatusReads::Read& read : reads) {
+    EXPECT_EQ(read.policy, SCHED_OTHER) << "read on " << read.thread;
+    EXPECT_EQ(read.thread, "mocapd-status");
+  }
+  const std::multimap<std::string, int> policies = threadPolicies();
+  ASSERT_EQ(policies.count("mocapd-status"), 1u);
+  EXPECT_EQ(policies.find("mocapd-status")->second, SCHED_OTHER);
+  server_->shutdown();
+}
+
+// A pipeline that does not give its status holds no request for good (503, after 2 s), nor piles
+// up reads: the requests that come meanwhile share the read under way. The view still stops.
+TEST_F(WebViewTest, AStatusThePipelineDoesNotGiveIsA503) {
+  start();
+  StatusReads status_reads(*server_->webView());
+  status_reads.hold(true);
+  std::vector<std::thread> browsers;
+  std::vector<std::optional<std::pair<int, std::string>>> answers(3);
+  for (std::size_t i = 0; i < answers.size(); ++i) {
+    browsers.emplace_back([this, &answers, i] {
+      httplib::Client browser("127.0.0.1", server_->webPort());
+      browser.set_read_timeout(10, 0);
+      if (auto answer = browser.Get("/api/status"))
+        answers[i] = std::make_pair(answer->status, answer->body);
+    });
+  }
+  for (std::thread& browser : browsers) browser.join();
+  for (const auto& answer : answers) {
+    ASSERT_TRUE(answer);
+    EXPECT_EQ(answer->first, 503);
+    const json body = json::parse(answer->second);
+    EXPECT_FALSE(body["ok"].get<bool>());
+    EXPECT_NE(body["message"].get<std::string>().find("no status from the pipeline"),
+              std::string::npos)
+        << answer->second;
+  }
+  status_reads.hold(false);
+  auto status = client_->Get("/api/status");
+  ASSERT_TRUE(status);
+  EXPECT_EQ(status->status, 200);
+  // The held read, and perhaps one for this request; one queued per request would be 4 by now.
+  EXPECT_LE(status_reads.all().size(), 2u) << "the requests shared the read under way";
+  server_->shutdown();
+}
+
 // Halved: the scene's 780x580 cameras are wider than the 640 pixels an image is sent at most; the
 // silhouette is tinted on the subject, not over the whole image.
 TEST_F(WebViewTest, AJpegPerCameraAtHalfTheCameraSize) {
@@ -279,8 +395,8 @@ TEST_F(WebViewTest, EventStreamDeliversPoses) {
   }
 }
 
-// The streams share each pose's serialized event: two browsers open at once get, for every frame set
-// both saw, the same pose (a shared event mixed up between poses would differ).
+// The streams share each pose's serialized event: two browsers open at once get, for every frame
+// set both saw, the same pose (a shared event mixed up between poses would differ).
 TEST_F(WebViewTest, TwoEventStreamsShareEachPose) {
   start();
   std::vector<json> first, second;
@@ -443,11 +559,20 @@ class HeadlessChromium {
   // browser's output goes to `dir`/chromium.log.
   HeadlessChromium(const std::string& browser, const fs::path& dir) {
     std::signal(SIGPIPE, SIG_IGN);  // a browser that died answers a write with EPIPE instead
-    std::vector<std::string> arguments = {
-        browser, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-        "--remote-debugging-pipe", "--user-data-dir=" + (dir / "profile").string(), "about:blank"};
+    std::vector<std::string> arguments = {browser,
+                                          "--headless",
+                                          "--no-sandbox",
+                                          "--disable-gpu",
+                                          "--no-first-run",
+                                          "--disable-background-networking",
+                                          "--disable-component-update",
+                                          "--disable-sync",
+                                          "--use-gl=angle",
+                                          "--use-angle=swiftshader",
+                                          "--enable-unsafe-swiftshader",
+                                          "--remote-debugging-pipe",
+                                          "--user-data-dir=" + (dir / "profile").string(),
+                                          "about:blank"};
     std::vector<char*> argv;
     for (std::string& argument : arguments) argv.push_back(argument.data());
     argv.push_back(nullptr);
@@ -547,8 +672,8 @@ class HeadlessChromium {
 
   // The value of a JavaScript expression in the page; null when it threw.
   json evaluate(const std::string& session, const std::string& expression) {
-    const auto result = call("Runtime.evaluate",
-                             {{"expression", expression}, {"returnByValue", true}}, session);
+    const auto result =
+        call("Runtime.evaluate", {{"expression", expression}, {"returnByValue", true}}, session);
     if (!result || result->contains("exceptionDetails")) return nullptr;
     return (*result)["result"].value("value", json());
   }
@@ -558,8 +683,9 @@ class HeadlessChromium {
     const auto result = call("Page.captureScreenshot", {{"format", "png"}}, session);
     if (!result) return {};
     const std::string png = decodeBase64((*result)["data"].get<std::string>());
-    return cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8U, const_cast<char*>(png.data())),
-                        cv::IMREAD_COLOR);
+    return cv::imdecode(
+        cv::Mat(1, static_cast<int>(png.size()), CV_8U, const_cast<char*>(png.data())),
+        cv::IMREAD_COLOR);
   }
 
  private:
@@ -598,8 +724,8 @@ TEST_F(WebViewTest, ChromiumShowsTheOutlineOverTheSubjectAndThe3dView) {
   {
     HeadlessChromium chromium(browser, dir);
     ASSERT_TRUE(chromium.started());
-    const std::string page = chromium.open(
-        "http://127.0.0.1:" + std::to_string(server_->webPort()) + "/", 1280, 900);
+    const std::string page =
+        chromium.open("http://127.0.0.1:" + std::to_string(server_->webPort()) + "/", 1280, 900);
     ASSERT_FALSE(page.empty()) << chromium.lastError() << "; see " << (dir / "chromium.log");
     // Usually within 2 s; the bound only ends a test whose page never gets there.
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
