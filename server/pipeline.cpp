@@ -374,6 +374,7 @@ std::shared_ptr<Pose> Pipeline::makePose(const MaskSet& masks, const FrameEstima
   pose->capture_monotonic_ns = masks.timestamp_ns;
   pose->stages = masks.stages;
   pose->body_version = body_.version;
+  pose->body = body_.model;
   pose->points = pointPositions(body, kinematics_);
   pose->orientations.reserve(body.segments.size());
   for (const Eigen::Isometry3d& world : kinematics_.world)

@@ -13,6 +13,8 @@
 
 namespace mocap {
 
+class BodyModel;
+
 // When the pipeline's stages handled a frame set (CLOCK_MONOTONIC ns; proto StageTimes).
 struct StageTimes {
   int64_t silhouettes_start_ns = 0;
@@ -33,11 +35,15 @@ struct Pose {
   int64_t capture_wall_ns = 0;       // the same instant in Unix time
   int64_t publish_monotonic_ns = 0;  // when the publisher took it
   uint32_t body_version = 0;         // of the body tracked (Pipeline::trackedBody)
+  // That body, whose points these are (null where a pose is made outside the pipeline). Carried
+  // with the pose so that a reader needs no lock to know it: Pipeline::trackedBody takes the fit
+  // job's, which the tracker takes to switch bodies.
+  std::shared_ptr<const BodyModel> body;
   std::vector<Eigen::Vector3d> points;           // BodyModel::points order, world, metres
   std::vector<Eigen::Quaterniond> orientations;  // per segment, world
   Eigen::VectorXd dofs;
-  double score = 0;   // best particle's log-likelihood
-  double spread = 0;  // particle spread around the estimate
+  double score = 0;                      // best particle's log-likelihood
+  double spread = 0;                     // particle spread around the estimate
   std::optional<double> silhouette_fit;  // tracker/search/acquire.h silhouetteFit, when measured
   std::optional<double> reference_error_mm;  // vs the true pose, when the source knows it
 

@@ -6,6 +6,7 @@
 #include <sched.h>
 
 #include <charconv>
+#include <chrono>
 #include <fstream>
 #include <future>
 #include <sstream>
@@ -72,7 +73,8 @@ std::string readFile(const std::string& path) {
 // status thread at the daemon's policy. Threads inherit their creator's policy, so the controls
 // that start threads or wait for them (a recording's writers) run on the control thread, at the
 // daemon's policy: a writer at idle priority barely runs on a saturated machine, and a recording's
-// stop would wait minutes for it.
+// stop would wait minutes for it. A background capture and a body fit are handed to the mask
+// thread there too, under locks it takes every frame set.
 void becomeAViewThread() {
   nameThisThread(kThreadName);
   const sched_param no_priority{};
@@ -181,15 +183,25 @@ int httpCode(BodyFitError error) {
   return 500;
 }
 
-// Starts a pipeline request that answers through a callback (on a pipeline thread) and waits for
-// the answer on this server thread; nullopt after kControlTimeout.
-template <typename Result, typename Start>
-std::optional<Result> await(Start start) {
+// Hands a pipeline request that answers through a callback (on a pipeline thread, or at once with
+// a refusal) to the pipeline on `thread` with `submit`, and waits for the answer on this server
+// thread; nullopt when none came within kControlTimeout of the call, the wait for `thread`
+// included. What `submit` throws is thrown here, where httplib answers 500.
+template <typename Result, typename Submit>
+std::optional<Result> await(httplib::TaskQueue& thread, Submit submit) {
+  const auto deadline = std::chrono::steady_clock::now() + kControlTimeout;
   auto answer = std::make_shared<std::promise<Result>>();
-  std::future<Result> future = answer->get_future();
-  start([answer](const Result& result) { answer->set_value(result); });
-  if (future.wait_for(kControlTimeout) != std::future_status::ready) return std::nullopt;
-  return future.get();
+  std::future<Result> answered = answer->get_future();
+  auto task =
+      std::make_shared<std::packaged_task<void()>>([answer, submit = std::move(submit)]() mutable {
+        submit([answer](const Result& result) { answer->set_value(result); });
+      });
+  std::future<void> submitted = task->get_future();
+  thread.enqueue([task] { (*task)(); });
+  if (submitted.wait_until(deadline) != std::future_status::ready) return std::nullopt;
+  submitted.get();
+  if (answered.wait_until(deadline) != std::future_status::ready) return std::nullopt;
+  return answered.get();
 }
 
 // Runs `control` on `thread` and waits for its answer on this server thread; nullopt after
@@ -302,11 +314,13 @@ void WebView::finish() {
   pose_changed_.notify_all();
 }
 
+// Each pose is drawn with the body it carries: Pipeline::trackedBody would take the fit job's lock,
+// which the tracker takes to switch bodies, from this idle-priority thread.
 std::shared_ptr<const std::string> WebView::poseEvent(const SharedPose& pose, uint64_t count) {
   std::lock_guard lock(event_mutex_);
   if (event_count_ != count) {
     newest_event_ = std::make_shared<const std::string>(
-        "data: " + poseJson(*pose, pipeline_.trackedBody(), rig_) + "\n\n");
+        "data: " + poseJson(*pose, {pose->body, pose->body_version}, rig_) + "\n\n");
     event_count_ = count;
   }
   return newest_event_;
@@ -396,7 +410,7 @@ void WebView::addRoutes() {
     }
     if (!pose) return replyResult(response, 503, "no pose yet");
     response.set_header("Cache-Control", "no-store");
-    response.set_content(poseJson(*pose, pipeline_.trackedBody(), rig_), kJsonType);
+    response.set_content(poseJson(*pose, {pose->body, pose->body_version}, rig_), kJsonType);
   });
   server.Get("/api/poses", [this](const httplib::Request& request, httplib::Response& response) {
     if (!authorized(request, response)) return;
@@ -454,20 +468,23 @@ void WebView::streamPoses(httplib::Response& response) {
 
 void WebView::addControlRoutes() {
   httplib::Server& server = *server_;
-  server.Post(
-      "/api/background", [this](const httplib::Request& request, httplib::Response& response) {
-        if (!authorized(request, response)) return;
-        const std::optional<int> frames = intParam(request, "frames", kDefaultBackgroundFrames);
-        if (!frames || *frames < 1 || *frames > kMaxBackgroundFrames)
-          return replyResult(response, 400,
-                             "frames: from 1 to " + std::to_string(kMaxBackgroundFrames));
-        logInfo() << "background capture of " << *frames << " frames requested by the web view";
-        const auto result = await<BackgroundResult>(
-            [&](auto done) { pipeline_.captureBackground(*frames, std::move(done)); });
-        if (!result) return replyResult(response, 504, "no answer from the pipeline");
-        replyResult(response, httpCode(result->error), result->message,
-                    {{"frames_used", result->frames_used}, {"warnings", result->warnings}});
-      });
+  server.Post("/api/background", [this](const httplib::Request& request,
+                                        httplib::Response& response) {
+    if (!authorized(request, response)) return;
+    const std::optional<int> frames = intParam(request, "frames", kDefaultBackgroundFrames);
+    if (!frames || *frames < 1 || *frames > kMaxBackgroundFrames)
+      return replyResult(response, 400,
+                         "frames: from 1 to " + std::to_string(kMaxBackgroundFrames));
+    const auto result =
+        await<BackgroundResult>(*control_thread_, [this, frames = *frames](auto done) {
+          if (control_observer_) control_observer_("background");
+          logInfo() << "background capture of " << frames << " frames requested by the web view";
+          pipeline_.captureBackground(frames, std::move(done));
+        });
+    if (!result) return replyResult(response, 504, "no answer from the pipeline");
+    replyResult(response, httpCode(result->error), result->message,
+                {{"frames_used", result->frames_used}, {"warnings", result->warnings}});
+  });
   server.Post(
       "/api/fit-body", [this](const httplib::Request& request, httplib::Response& response) {
         if (!authorized(request, response)) return;
@@ -476,10 +493,13 @@ void WebView::addControlRoutes() {
           return replyResult(response, 400,
                              "frame_sets: from 1 to " + std::to_string(kMaxFitFrameSets));
         const bool apply = request.get_param_value("apply") == "1";
-        logInfo() << "body fit from " << *frame_sets << " frame sets" << (apply ? ", applied," : "")
-                  << " requested by the web view";
         const auto result = await<FitBodyResult>(
-            [&](auto done) { pipeline_.fitBody(*frame_sets, apply, std::move(done)); });
+            *control_thread_, [this, frame_sets = *frame_sets, apply](auto done) {
+              if (control_observer_) control_observer_("fit-body");
+              logInfo() << "body fit from " << frame_sets << " frame sets"
+                        << (apply ? ", applied," : "") << " requested by the web view";
+              pipeline_.fitBody(frame_sets, apply, std::move(done));
+            });
         if (!result) return replyResult(response, 504, "no answer from the pipeline");
         replyResult(response, httpCode(result->error), result->message,
                     {{"frame_sets_used", result->frame_sets_used},

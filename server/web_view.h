@@ -61,6 +61,11 @@ class WebView final : public PoseSubscriber {
   void setStatusReadObserver(std::function<void()> observer) {
     status_read_observer_ = std::move(observer);
   }
+  // A seam for tests: called on the thread that hands a background capture ("background") or a
+  // body fit ("fit-body") to the pipeline, just before it does. Set it before the first control.
+  void setControlObserver(std::function<void(const char* control)> observer) {
+    control_observer_ = std::move(observer);
+  }
 
  private:
   void addRoutes();
@@ -84,9 +89,12 @@ class WebView final : public PoseSubscriber {
   CameraImages images_;
   std::unique_ptr<httplib::Server> server_;
   std::thread listener_;
-  // Runs the controls that do the pipeline's work on the caller's thread (recording start and
-  // stop): what they start inherits the caller's scheduling policy, which must be the daemon's,
-  // not the view's idle one. Started by start(), on the daemon's thread.
+  // Runs the controls' work on the pipeline (recording start and stop, handing a background
+  // capture or a body fit to the mask thread), at the daemon's policy: what a control starts
+  // inherits its caller's policy, which must not be the view's idle one, and the locks a request
+  // is queued under (the background manager's, the fit job's, the recording's) are taken by the
+  // mask thread every frame set, which a view thread preempted inside one would hold up. Started
+  // by start(), on the daemon's thread.
   std::unique_ptr<httplib::TaskQueue> control_thread_;
   // Reads the pipeline's status for /api/status (mocapd-status), at the daemon's policy: the
   // status takes the pipeline's own locks (the synchronizer's, the hand-offs', the meters'), which
@@ -95,6 +103,7 @@ class WebView final : public PoseSubscriber {
   // by start(), on the daemon's thread.
   std::unique_ptr<httplib::TaskQueue> status_thread_;
   std::function<void()> status_read_observer_;
+  std::function<void(const char*)> control_observer_;
   int port_ = 0;
   bool subscribed_ = false;
 

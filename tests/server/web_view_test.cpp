@@ -303,6 +303,51 @@ TEST_F(WebViewTest, TheStatusIsReadAtTheDaemonsPolicy) {
   server_->shutdown();
 }
 
+// A background capture and a body fit are queued for the mask thread under the background
+// manager's and the fit job's locks, which it takes on every frame set: queued from a view thread
+// at idle priority, one preempted inside them would hold the mask thread up. Each control keeps
+// its answer.
+TEST_F(WebViewTest, TheBackgroundAndFitControlsAreQueuedAtTheDaemonsPolicy) {
+  start();
+  struct Submission {
+    std::string control;
+    int policy;
+    std::string thread;
+  };
+  // Shared with the observer, which the view keeps after the test's objects are gone.
+  struct Submissions {
+    std::mutex mutex;
+    std::vector<Submission> all;
+  };
+  auto submissions = std::make_shared<Submissions>();
+  server_->webView()->setControlObserver([submissions](const char* control) {
+    char name[16] = {};
+    pthread_getname_np(pthread_self(), name, sizeof name);
+    std::lock_guard lock(submissions->mutex);
+    submissions->all.push_back({control, sched_getscheduler(0), name});
+  });
+  auto background = client_->Post("/api/background?frames=1");
+  ASSERT_TRUE(background);
+  EXPECT_EQ(background->status, 200) << background->body;
+  EXPECT_EQ(json::parse(background->body)["frames_used"], 1);
+  // The hand scene's body has no fit pose: the fit job refuses it as it is queued.
+  auto fit = client_->Post("/api/fit-body?frame_sets=1");
+  ASSERT_TRUE(fit);
+  EXPECT_EQ(fit->status, 409) << fit->body;
+  EXPECT_NE(json::parse(fit->body)["message"].get<std::string>().find("fit_pose"),
+            std::string::npos)
+      << fit->body;
+  std::lock_guard lock(submissions->mutex);
+  ASSERT_EQ(submissions->all.size(), 2u);
+  EXPECT_EQ(submissions->all[0].control, "background");
+  EXPECT_EQ(submissions->all[1].control, "fit-body");
+  for (const Submission& submission : submissions->all) {
+    EXPECT_EQ(submission.policy, SCHED_OTHER)
+        << submission.control << " queued on " << submission.thread;
+    EXPECT_EQ(submission.thread, "mocapd-control") << submission.control;
+  }
+}
+
 // A pipeline that does not give its status holds no request for good (503, after 2 s), nor piles
 // up reads: the requests that come meanwhile share the read under way. The view still stops.
 TEST_F(WebViewTest, AStatusThePipelineDoesNotGiveIsA503) {
