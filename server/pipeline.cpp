@@ -133,6 +133,9 @@ void Pipeline::makeTrackerFilter(bool in_fit_pose) {
     acquiring_options.challenge_every = finds_subject_ ? config_.tracker.challenge_every : 0;
     acquiring_options.trial_drop_margin = config_.tracker.trial_drop_margin;
     acquiring_options.search.uncross = options.refine.uncross;
+    // With one tracker thread the hypotheses' filters share a pool that runs inline, so a
+    // challenge's rivals can take the second core on the trial's slowest frame.
+    acquiring_options.concurrent_rivals = config_.tracker.threads <= 1;
     const BodyModel& body = *body_.model;
     std::vector<Eigen::VectorXd> stances = acquisitionStances(body);
     if (in_fit_pose && body.fit_pose) stances.push_back(body.stancePose(*body.fit_pose));

@@ -387,9 +387,31 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
   // hypotheses search in full (the flow limiter drops sets meanwhile); a lone track gives way.
   const bool trial = hypotheses_.size() > 1 || joining;
   const double margin = trial ? options_.trial_drop_margin : 0;
-  auto track = [&](Hypothesis& h) {
-    h.filter->setYield(trial ? std::function<bool()>() : yield_);
-    FrameEstimate e = h.filter->step(masks);
+  // A challenge found on the previous frame: its starts that pass the gate on that frame's scores
+  // (the track's estimate and the best start's), each to track this frame as the track does, from
+  // its pose of then; concurrently with the track if asked.
+  std::vector<Hypothesis> rivals;
+  std::vector<std::future<FrameEstimate>> rival_steps;
+  bool challenge_found = false;
+  if (joining) {
+    Challenge challenge = challenge_.get();
+    last_failure_ = challenge.why_not;
+    challenge_found = !challenge.found.empty();
+    if (challenge_found) {
+      ++acquisitions_;
+      acquisition_evaluations = challenge.found.front().evaluations;
+      const double bar = std::max(challenge.track_score, challenge.found.front().log_likelihood);
+      for (const Acquisition& a : challenge.found)
+        if (!(margin > 0 && a.log_likelihood < bar - margin)) rivals.push_back(newHypothesis(a.q));
+    }
+    for (Hypothesis& h : rivals) {
+      h.filter->setYield({});
+      if (options_.concurrent_rivals)
+        rival_steps.push_back(std::async(
+            std::launch::async, [&masks, filter = h.filter.get()] { return filter->step(masks); }));
+    }
+  }
+  auto score = [&](Hypothesis& h, FrameEstimate e) {
     const PixelCounts counts = scorer_.evaluate(e.q, masks, 0);
     h.score += logLikelihood(likelihood_, counts) - crossed_.cost(model_, crossing_, e.q);
     evaluations += e.evaluations + 1;
@@ -400,6 +422,10 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
       ahead = std::move(e);
       ahead_counts = counts;
     }
+  };
+  auto track = [&](Hypothesis& h) {
+    h.filter->setYield(trial ? std::function<bool()>() : yield_);
+    score(h, h.filter->step(masks));
   };
   // Hypotheses just found have their acquisition's fit of this frame as a first score: one already
   // `margin` behind the best does not track it (the track, first, has been scored by then).
@@ -415,23 +441,13 @@ FrameEstimate AcquiringFilter::step(const std::vector<SilhouetteMask>& masks) {
     track(*it);
     ++it;
   }
-  if (joining) {
-    // Found on the previous frame, as the track was scored there: the same gate on that frame's
-    // scores, then each start tracks this frame as the track just did, from its pose of then.
-    Challenge challenge = challenge_.get();
-    last_failure_ = challenge.why_not;
-    if (!challenge.found.empty()) {
-      ++acquisitions_;
-      acquisition_evaluations = challenge.found.front().evaluations;
-      const double bar = std::max(challenge.track_score, challenge.found.front().log_likelihood);
-      for (const Acquisition& a : challenge.found) {
-        if (margin > 0 && a.log_likelihood < bar - margin) continue;
-        hypotheses_.push_back(newHypothesis(a.q));
-        track(hypotheses_.back());
-      }
-      trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
-    }
+  // Scored after the track, in the challenge's order, however they were stepped.
+  for (std::size_t r = 0; r < rivals.size(); ++r) {
+    hypotheses_.push_back(std::move(rivals[r]));
+    Hypothesis& h = hypotheses_.back();
+    score(h, r < rival_steps.size() ? rival_steps[r].get() : h.filter->step(masks));
   }
+  if (challenge_found) trial_frames_left_ = hypotheses_.size() > 1 ? options_.trial_frames : 0;
   ahead.evaluations = evaluations + acquisition_evaluations;
   ahead.segment_renders = renders;
   ahead.cut_short = cut_short;

@@ -100,6 +100,12 @@ struct AcquiringOptions {
   // the start; racing them off makes a trial cost little more than the track. 40 is 2,000 pixels
   // at the likelihood's beta of 0.02.
   double trial_drop_margin = 40;
+  // The hypotheses a challenge adds step their first frame each on a thread of its own, beside
+  // the track, instead of after it: that frame is a trial's slowest, the track and every rival in
+  // full. Results are the same either way (each hypothesis has its own filter; the scores are
+  // summed in the same order). Only for filters that share nothing else: their factory's worker
+  // pool must have one thread, as the daemon's does with `threads: 1`.
+  bool concurrent_rivals = false;
   AcquireOptions search;
 };
 

@@ -271,6 +271,21 @@ TEST(Acquire, TrailingHypothesesLeaveTheTrialEarly) {
   EXPECT_LT(headingError(replaced.q[yaw], scene.truth[yaw]), 20 * kDeg);
 }
 
+// A challenge's starts stepped each on a thread of their own, beside the track, give the same
+// estimates as stepped after it: each has its own filter, and the scores are summed in order.
+TEST(Acquire, ConcurrentRivalsTrackAsTheSequentialOnesDo) {
+  StrideScene scene(4);
+  AcquiringOptions acquiring = fullTrialsOnly();  // every start joins and runs the whole trial
+  acquiring.challenge_every = 8;
+  const auto [sequential, one_by_one] = trackFromTurned(scene, acquiring, 12);
+  acquiring.concurrent_rivals = true;
+  const auto [concurrent, side_by_side] = trackFromTurned(scene, acquiring, 12);
+  EXPECT_EQ(concurrent->acquisitions(), 1);
+  EXPECT_GT(side_by_side.evaluations, 2 * (500 + 1));  // rivals are still on trial
+  EXPECT_EQ(side_by_side.evaluations, one_by_one.evaluations);
+  EXPECT_EQ(side_by_side.q, one_by_one.q);
+}
+
 // A challenge on a frame where no subject is seen (fewer than two cameras see enough) changes
 // nothing: the track goes on, giving poses.
 TEST(Acquire, AChallengeThatFindsNoSubjectLeavesTheTrack) {
