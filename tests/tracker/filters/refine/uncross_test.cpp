@@ -15,6 +15,7 @@
 namespace mocap {
 namespace {
 
+using testing_support::pelvisAndLegs;
 using testing_support::refineAlone;
 using testing_support::silhouettes;
 using testing_support::twoCamerasOnTheLegs;
@@ -104,32 +105,12 @@ TEST(FactoredFilter, CrossedFeetCostWhatTheyCrossBeyondTheMargin) {
   }
 }
 
+// A body that names no two feet has no legs to uncross, and says so when asked to.
 TEST(FactoredFilter, CrossedFeetNeedTwoMatchingLegs) {
-  const BodyModel one_foot = parseBodyModel(R"(
-name: one_foot
-feet: [foot]
-segments:
-  - name: pelvis
-    dofs: [{name: height, type: translation, axis: [0, 0, 1], min: -1, max: 1, max_speed: 0.1}]
-    shape: {type: ellipsoid, center: [0, 0, 0], radii: [0.1, 0.1, 0.1]}
-  - name: thigh
-    parent: pelvis
-    dofs: [{name: flex, axis: [1, 0, 0], min: -60, max: 60, max_speed: 10}]
-    shape: {type: cone, axis: [0, 0, -1], length: 0.4, radius_start: 0.05, radius_end: 0.04}
-  - name: shin
-    parent: thigh
-    offset: [0, 0, -0.4]
-    dofs: [{name: knee, axis: [-1, 0, 0], min: 0, max: 150, max_speed: 10}]
-    shape: {type: cone, axis: [0, 0, -1], length: 0.4, radius_start: 0.04, radius_end: 0.03}
-  - name: foot
-    parent: shin
-    offset: [0, 0, -0.4]
-    shape: {type: ellipsoid, center: [0, 0.05, 0], radii: [0.04, 0.1, 0.04]}
-)",
-                                            "one_foot.yaml");
-  EXPECT_EQ(findCrossedLegs(one_foot, 0).weight, 0);  // off: nothing asked of the model
+  const BodyModel no_feet = pelvisAndLegs();         // legs, but no `feet` named
+  EXPECT_EQ(findCrossedLegs(no_feet, 0).weight, 0);  // off: nothing asked of the model
   try {
-    findCrossedLegs(one_foot, 10);
+    findCrossedLegs(no_feet, 10);
     FAIL() << "expected invalid_argument";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("refine_uncross"), std::string::npos) << e.what();
