@@ -19,12 +19,22 @@ namespace {
 
 using ::testing::HasSubstr;
 
-std::string writeTempFile(const std::string& name, const std::string& text) {
-  const std::filesystem::path path =
-      std::filesystem::path(testing::TempDir()) / (std::to_string(getpid()) + "_" + name);
-  std::ofstream(path) << text;
-  return path.string();
-}
+// A file of the test's own, removed when it goes out of scope.
+class TempFile {
+ public:
+  TempFile(const std::string& name, const std::string& text)
+      : path_((std::filesystem::path(testing::TempDir()) / (std::to_string(getpid()) + "_" + name))
+                  .string()) {
+    std::ofstream(path_) << text;
+  }
+  ~TempFile() { std::filesystem::remove(path_); }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
 
 // loadRig's message for the rig file at `path`; "(loaded)" if it loads.
 std::string rigError(const std::string& path) {
@@ -39,7 +49,8 @@ std::string rigError(const std::string& path) {
 // OpenCV asserted (cv::Exception, "isMap()") on a rig whose top level is not a map.
 TEST(FuzzFindingsTest, RigWhoseTopLevelIsNotAMapIsRefusedByName) {
   for (const std::string top : {"- camera_count\n- 2\n", "just text\n"}) {
-    const std::string path = writeTempFile("rig_not_a_map.yaml", "%YAML:1.0\n---\n" + top);
+    const TempFile file("rig_not_a_map.yaml", "%YAML:1.0\n---\n" + top);
+    const std::string& path = file.path();
     EXPECT_THAT(rigError(path), HasSubstr(path + ": not a camera rig")) << top;
   }
 }
@@ -62,7 +73,8 @@ TEST(FuzzFindingsTest, RigTextsTheParsersFailedOnAreRefusedByName) {
        ": not a camera rig: text after the first YAML document"},
   };
   for (const auto& c : cases) {
-    const std::string path = writeTempFile(c.name, c.text);
+    const TempFile file(c.name, c.text);
+    const std::string& path = file.path();
     EXPECT_THAT(rigError(path), HasSubstr(path + c.error)) << c.name;
   }
 }
@@ -70,11 +82,12 @@ TEST(FuzzFindingsTest, RigTextsTheParsersFailedOnAreRefusedByName) {
 // OpenCV allocated rows x cols (80 GB here) before reading a matrix's data (ASan: out of memory);
 // the size is still checked before anything is read.
 TEST(FuzzFindingsTest, RigMatrixOfAHugeSizeIsRefusedBeforeAllocating) {
-  const std::string path = writeTempFile(
+  const TempFile file(
       "rig_huge_matrix.yaml",
       "%YAML:1.0\n---\ncamera_count: 1\ncamera_0:\n   image_width: 780\n   image_height: 580\n"
       "   camera_matrix: !!opencv-matrix\n      rows: 100000\n      cols: 100000\n      dt: d\n"
       "      data: [ 1200., 0., 390., 0., 1200., 290., 0., 0., 1. ]\n");
+  const std::string& path = file.path();
   EXPECT_EQ(rigError(path),
             path + ": camera_0.camera_matrix: 100000x100000 is larger than any matrix of a rig");
 }
@@ -115,7 +128,8 @@ TEST(FuzzFindingsTest, BackgroundTextsFileStorageFailedOnAreRefusedByName) {
        ": expected a field of the model (\"name: value\") (line 3)"},
   };
   for (const auto& c : cases) {
-    const std::string path = writeTempFile(c.name, c.text);
+    const TempFile file(c.name, c.text);
+    const std::string& path = file.path();
     EXPECT_THAT(backgroundError(path), HasSubstr(path + c.error)) << c.name;
   }
 }
