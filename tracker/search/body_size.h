@@ -34,8 +34,13 @@ struct BodyProportions {
   // the legs' (feet too). Limbs vary apart from the trunk (a heavy build thickens the trunk most).
   double trunk_girth = 1;
   double arm_girth = 1;
+  // The thighs' at the knee, apart from the rest of the legs': a skirt, a dress or a coat hanging
+  // from the hips widens the legs' outline there and follows the knees, as a thigh drawn wide at
+  // its end does. Searched before leg_girth, which then fits the legs below the garment.
+  double thigh_end_girth = 1;
   double leg_girth = 1;
-  static constexpr int kCount = 8;
+  static constexpr int kCount = 9;
+  static constexpr int kThighEndGirth = 7;  // its index
   double& operator[](int k);
   double operator[](int k) const { return const_cast<BodyProportions&>(*this)[k]; }
   static const char* name(int k);
@@ -44,8 +49,9 @@ struct BodyProportions {
 // The model with those proportions: lengths by fitModelToRestPoints (tracker/motion/retarget.h) on
 // its own rest pose so changed, so the feet stay on the floor; each girth on its part's cone radii
 // and ellipsoid semi-axes across the segment frame's Z (the trunk's and the head's up axis), the
-// legs being the segments from those carrying the hip points down, the arms from the shoulders'.
-// Needs the human's 19 point names; throws std::runtime_error naming a missing one.
+// legs being the segments from those carrying the hip points down, the arms from the shoulders',
+// and thigh_end_girth on the far end of the thighs' cones instead of leg_girth. Needs the human's
+// 19 point names; throws std::runtime_error naming a missing one.
 BodyModel proportionedBodyModel(const BodyModel& model, const BodyProportions& proportions);
 
 // The model's fit pose standing where `placed` stands and facing its way: the root's translations
@@ -70,6 +76,10 @@ struct BodyFitOptions {
   double proportion_step = 0.05;
   double finest_step = 0.0125;
   double min_factor = 0.6, max_factor = 1.4;
+  // thigh_end_girth's own bound and first step: a skirt's hem is up to about 3.5 times a bare
+  // thigh's radius at the knee.
+  double max_thigh_end_girth = 4;
+  double thigh_end_step = 0.25;
   // Per frame and candidate body: the local search of its pose.
   int search_evaluations = 300;
   // Asked before each frame set is searched: true ends the fit with BodyFitStopped (a daemon

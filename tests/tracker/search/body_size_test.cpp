@@ -43,6 +43,7 @@ TEST(BodyProportions, EachChangesTheBonesItNamesAndTheFeetStayOnTheFloor) {
   build.trunk_girth = 1.1;
   build.arm_girth = 0.9;
   build.leg_girth = 1.2;
+  build.thigh_end_girth = 2;
   const BodyModel fitted = proportionedBodyModel(human, build);
   const auto after = standingPoints(fitted);
   for (const char* side : {"l_", "r_"}) {
@@ -81,6 +82,13 @@ TEST(BodyProportions, EachChangesTheBonesItNamesAndTheFeetStayOnTheFloor) {
     SCOPED_TRACE(segment);
     EXPECT_NEAR(radius(fitted, segment), girth * radius(human, segment), 1e-12);
   }
+  // The thighs' end girth is theirs at the knee alone.
+  const auto knee_end = [](const BodyModel& body, const char* segment) {
+    return body.segments[body.segmentIndex(segment)].shape.radius_end;
+  };
+  for (const char* thigh : {"l_thigh", "r_thigh"})
+    EXPECT_NEAR(knee_end(fitted, thigh), 2 * knee_end(human, thigh), 1e-12) << thigh;
+  EXPECT_NEAR(knee_end(fitted, "l_shin"), 1.2 * knee_end(human, "l_shin"), 1e-12);
 }
 
 TEST(BodyFit, RecoversTheBuildOfASubjectStandingInTheFitPose) {
@@ -96,6 +104,7 @@ TEST(BodyFit, RecoversTheBuildOfASubjectStandingInTheFitPose) {
   truth.trunk_girth = 0.95;
   truth.arm_girth = 1.1;
   truth.leg_girth = 0.9;
+  truth.thigh_end_girth = 2.5;  // as a skirt's hem
   const BodyModel subject = proportionedBodyModel(human, truth);
   Eigen::VectorXd standing = human.stancePose(*human.fit_pose);
   standing[human.dofIndex("root_tx")] = 0.4;
@@ -115,6 +124,7 @@ TEST(BodyFit, RecoversTheBuildOfASubjectStandingInTheFitPose) {
       fitBodyInPose(human, rig, frames, LikelihoodParams{}, {}, &why);
   ASSERT_TRUE(fit) << why;
   for (int k = 0; k < BodyProportions::kCount; ++k) {
+    if (k == BodyProportions::kThighEndGirth) continue;                  // below
     if (std::string(BodyProportions::name(k)) == "arm_girth") continue;  // below
     SCOPED_TRACE(BodyProportions::name(k));
     EXPECT_NEAR(fit->proportions[k], truth[k], 0.05) << fit->proportions[k];
@@ -124,6 +134,8 @@ TEST(BodyFit, RecoversTheBuildOfASubjectStandingInTheFitPose) {
   // thinner (1.04 here; lab log, "the girth of each part").
   EXPECT_GT(fit->proportions.arm_girth, fit->proportions.trunk_girth + 0.05);
   EXPECT_LT(fit->proportions.arm_girth, truth.arm_girth + 0.05);
+  // The thighs' end girth, here a garment's, to 10 %.
+  EXPECT_NEAR(fit->proportions.thigh_end_girth, truth.thigh_end_girth, 0.25);
   // The fitted body explains the silhouettes better than the best of the uniform scales did.
   const auto scale =
       std::max_element(fit->scale_log_likelihoods.begin(), fit->scale_log_likelihoods.end());
