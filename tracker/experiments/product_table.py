@@ -10,6 +10,15 @@ the subject (segment lengths within 3 %, girths within 10 %).
 
 Everything after "--" is passed to every run. Runs are independent processes, so --jobs N runs N
 at once (results do not depend on it). --summarize FILE prints the table of an earlier --out.
+
+A change is judged run by run against the same runs without it (one run's error moves by tens of
+millimetres from chance alone):
+
+  tracker/experiments/product_table.py --summarize after.jsonl --against before.jsonl
+
+prints, over the runs both files hold (the same motion, subject seed and seed), each file's MPJPE
+median and mean, and the paired difference after - before: its mean, the mean's standard error and
+the runs the second file has better.
 """
 import argparse
 import concurrent.futures
@@ -61,6 +70,40 @@ def summarize(rows):
               f"{lengths_ok} of {len(fits)} | {girth_ok} of {len(fits)} |")
 
 
+def run_key(row):
+    return row["motion"], row["subject_seed"], row["seed"]
+
+
+def paired(after, before):
+    """After - before over the runs both hold: (runs, mean, standard error of the mean, runs
+    better, (median, mean) of each)."""
+    before_by_key = {run_key(r): r for r in before}
+    pairs = [(before_by_key[run_key(r)]["mpjpe_mm"], r["mpjpe_mm"]) for r in after
+             if run_key(r) in before_by_key]
+    if len(pairs) < 2:
+        raise ValueError(f"{len(pairs)} runs in common: a paired comparison needs two or more")
+    differences = [b - a for a, b in pairs]
+    mean = statistics.mean(differences)
+    error = statistics.stdev(differences) / len(differences) ** 0.5
+    better = sum(d < 0 for d in differences)
+    spread = [(statistics.median(side), statistics.mean(side))
+              for side in ([a for a, _ in pairs], [b for _, b in pairs])]
+    return len(pairs), mean, error, better, spread
+
+
+def print_paired(after, before):
+    runs, mean, error, better, ((m0, a0), (m1, a1)) = paired(after, before)
+    print(f"{runs} runs in common: before median {m0:.1f} mm, mean {a0:.1f} mm; after median "
+          f"{m1:.1f} mm, mean {a1:.1f} mm; after - before {mean:+.1f} +- {error:.1f} mm a run "
+          f"({abs(mean) / error if error else float('inf'):.1f} standard errors), {better} of "
+          f"{runs} better")
+
+
+def read_rows(path):
+    with open(path) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
 def main():
     argv, passthrough = split_passthrough(sys.argv[1:])
     parser = argparse.ArgumentParser()
@@ -71,10 +114,18 @@ def main():
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", help="every run's JSON, one line each")
     parser.add_argument("--summarize", help="print the table of an earlier --out and stop")
+    parser.add_argument("--against", help="with --summarize: the same runs before a change")
     args = parser.parse_args(argv)
+    if args.against and not args.summarize:
+        parser.error("--against needs --summarize")
     if args.summarize:
-        with open(args.summarize) as f:
-            summarize([json.loads(line) for line in f if line.strip()])
+        rows = read_rows(args.summarize)
+        summarize(rows)
+        if args.against:
+            try:
+                print_paired(rows, read_rows(args.against))
+            except ValueError as e:
+                parser.error(f"--against {args.against}: {e}")
         return
     if not args.motions or not args.out:
         parser.error("--motions and --out are required (or --summarize FILE)")
