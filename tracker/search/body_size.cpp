@@ -183,6 +183,12 @@ BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
       options.max_scale < options.min_scale)
     throw std::invalid_argument(
         "body scale candidates: expected 0 < min_scale <= max_scale and a positive step");
+  if (!(options.min_factor > 0) || !(options.max_factor >= options.min_factor) ||
+      !(options.max_thigh_end_girth >= options.min_factor) || !(options.proportion_step > 0) ||
+      !(options.thigh_end_step > 0) || !(options.finest_step > 0))
+    throw std::invalid_argument(
+        "body proportions: expected 0 < min_factor <= max_factor and max_thigh_end_girth, and "
+        "positive steps");
 
   BodyFit fit;
   BuildScorer scorer(model, rig, frames, poses, likelihood, options.search_evaluations,

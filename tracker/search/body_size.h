@@ -104,7 +104,8 @@ struct BodyFit {
 
 // Fits `model` to the subject seen in `frames` (each one mask per camera of `rig`), tracked in each
 // as `poses` (DOF vectors of `model`). Throws std::invalid_argument if frames and poses differ in
-// number or are none, a frame does not match the rig, or the options give no candidate.
+// number or are none, a frame does not match the rig, or the options give no candidate scale or
+// no range to a proportion.
 BodyFit fitBodyToSubject(const BodyModel& model, const Rig& rig,
                          const std::vector<std::vector<SilhouetteMask>>& frames,
                          const std::vector<Eigen::VectorXd>& poses,

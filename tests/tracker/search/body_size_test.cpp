@@ -1,7 +1,10 @@
 // Fitting the body to a subject: proportions change the bones they name and keep the feet on the
 // floor; a subject of another build standing in the fit pose is found and its build recovered
-// from two cameras; no subject, or a model without a fit pose, is said so; a fit stops when asked.
+// from two cameras; no subject, or a model without a fit pose, is said so; bounds that leave a
+// proportion no range are refused; a fit stops when asked.
 #include "tracker/search/body_size.h"
+
+#include <functional>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -163,6 +166,28 @@ TEST(BodyFit, NoSubjectOrNoFitPoseIsSaid) {
     EXPECT_THAT(e.what(), HasSubstr("has no fit_pose"));
   }
   EXPECT_THROW(fitBodyToSubject(human, rig, empty, {}, LikelihoodParams{}), std::invalid_argument);
+}
+
+TEST(BodyFit, ProportionBoundsThatLeaveNoRangeAreRefused) {
+  const BodyModel human = builtinHumanModel();
+  const Eigen::VectorXd standing = human.stancePose(*human.fit_pose);
+  const Rig rig = labRig(2, human, Motion{standing});
+  const std::vector<std::vector<SilhouetteMask>> frames = {silhouettes(human, rig, standing)};
+  for (const auto& spoil : std::vector<std::function<void(BodyFitOptions&)>>{
+           [](BodyFitOptions& o) { o.max_factor = 0.5; },
+           [](BodyFitOptions& o) { o.max_thigh_end_girth = 0.5; },
+           [](BodyFitOptions& o) { o.min_factor = 0; },
+           [](BodyFitOptions& o) { o.thigh_end_step = 0; },
+           [](BodyFitOptions& o) { o.finest_step = -1; }}) {
+    BodyFitOptions options;
+    spoil(options);
+    try {
+      fitBodyToSubject(human, rig, frames, {standing}, LikelihoodParams{}, options);
+      ADD_FAILURE() << "fitted with bounds that leave no range";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_THAT(e.what(), HasSubstr("body proportions: expected 0 < min_factor"));
+    }
+  }
 }
 
 TEST(BodyFit, StopsWhenAsked) {
