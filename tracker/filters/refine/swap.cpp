@@ -42,7 +42,8 @@ LegSwap findSwappedLegs(const BodyModel& model, bool knees_only, const std::stri
 }
 
 void swapLegs(const BodyModel& model, const LegSwap& swap, double margin, PoseSearch& search,
-              MoveScratch& scratch, Eigen::VectorXd& q, double& best) {
+              MoveScratch& scratch, Eigen::VectorXd& q, double& best,
+              const std::function<void(Eigen::VectorXd&)>& adjust) {
   if (search.budget() <= 2) return;
   Eigen::VectorXd& local = scratch.local;
   local = q;
@@ -50,6 +51,7 @@ void swapLegs(const BodyModel& model, const LegSwap& swap, double margin, PoseSe
     local[a] = std::clamp(q[b], model.dofs[a].min, model.dofs[a].max);
     local[b] = std::clamp(q[a], model.dofs[b].min, model.dofs[b].max);
   }
+  if (adjust) adjust(local);
   const double local_value = search.trialScore(local);
   search.evaluator().accept();
   // Up to 2 poses per leg angle.

@@ -4,6 +4,7 @@
 // (which leg is in front), and no step of one leg gets from one to the other.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -28,10 +29,11 @@ struct LegSwap {
 // feet with the same free DOFs per segment.
 LegSwap findSwappedLegs(const BodyModel& model, bool knees_only, const std::string& option);
 
-// The pose with the legs' angles exchanged, searched locally on them (up to 2 poses per leg
-// angle); kept in q and `best` if it beats the pose by `margin` (log-likelihood), otherwise the
-// evaluator goes back to q.
+// The pose with the legs' angles exchanged (then changed by `adjust`, if set), searched locally on
+// them (up to 2 poses per leg angle); kept in q and `best` if it beats the pose by `margin`
+// (log-likelihood), otherwise the evaluator goes back to q.
 void swapLegs(const BodyModel& model, const LegSwap& swap, double margin, PoseSearch& search,
-              MoveScratch& scratch, Eigen::VectorXd& q, double& best);
+              MoveScratch& scratch, Eigen::VectorXd& q, double& best,
+              const std::function<void(Eigen::VectorXd&)>& adjust = {});
 
 }  // namespace mocap

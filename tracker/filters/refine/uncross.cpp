@@ -48,18 +48,12 @@ void uncrossLegs(const BodyModel& model, const CrossedLegs& crossed, const std::
   if (crossed.crossing(data.kinematics) <= 0) return;
   const Eigen::Vector3d foot[2] = {data.kinematics.world[crossed.feet[0]].translation(),
                                    data.kinematics.world[crossed.feet[1]].translation()};
-  Eigen::VectorXd& local = scratch.local;
-  local = q;
-  for (const auto& [a, b] : crossed.legs.pairs) {
-    local[a] = std::clamp(q[b], model.dofs[a].min, model.dofs[a].max);
-    local[b] = std::clamp(q[a], model.dofs[b].min, model.dofs[b].max);
-  }
-  for (const Leg& leg : legs)
-    moveJointTo(model, data, leg, leg.segment, foot[leg.segment == crossed.feet[0] ? 1 : 0], local);
-  const double local_value = search.trialScore(local);
-  search.evaluator().accept();
-  search.searchAndKeep(crossed.legs.dofs, 2 * static_cast<int>(crossed.legs.dofs.size()), 0, local,
-                       local_value, q, best);
+  // The legs' angles exchanged first, then each leg moved to the other's foot.
+  swapLegs(model, crossed.legs, 0, search, scratch, q, best, [&](Eigen::VectorXd& local) {
+    for (const Leg& leg : legs)
+      moveJointTo(model, data, leg, leg.segment, foot[leg.segment == crossed.feet[0] ? 1 : 0],
+                  local);
+  });
 }
 
 }  // namespace mocap
