@@ -55,9 +55,27 @@ double modelExtent(const BodyModel& model) {
 // subject has its own).
 BodyModel truthBodyOf(const BodyModel& model, const Subject& subject) {
   BodyModel body = fitModelToRestPoints(model, modelPointsFromJoints(model, subject.rest()));
+  // The subject's pelvis joint is where the model's pelvis point is, and the root DOFs turn the
+  // model about its root: the fit put the body's root between the hips instead, so it moves back to
+  // where the model has it relative to the pelvis point.
+  const int pelvis = body.pointIndex(kSubjectJointNames[kPelvis]);
+  if (body.points[pelvis].segment == 0 && model.points[pelvis].segment == 0)
+    moveSegmentOrigin(body, 0, body.points[pelvis].local - model.points[pelvis].local);
+  // The subject's neck swings with the model's, scaled (Subject::retarget): so the spine bends
+  // about a joint as far up the trunk as the model's, the chest's points and children staying put.
+  const int neck = body.pointIndex(kSubjectJointNames[kNeck]);
+  const int chest = body.segments[body.points[neck].segment].parent;
+  if (chest > 0 && body.segments[chest].parent == 0 && model.points[pelvis].segment == 0) {
+    const SubjectJoints model_rest = subjectJointsAt(model, model.neutralPose());
+    const double scale = (subject.rest()[kNeck] - subject.rest()[kPelvis]).norm() /
+                         (model_rest[kNeck] - model_rest[kPelvis]).norm();
+    const Eigen::Vector3d to_chest = model.segments[chest].offset - model.points[pelvis].local;
+    const Eigen::Vector3d move =
+        body.points[pelvis].local + scale * to_chest - body.segments[chest].offset;
+    moveSegmentOrigin(body, chest, move);
+  }
   KinematicsData kinematics(body);
   forwardKinematics(body, kinematics, body.neutralPose());
-  const int pelvis = body.pointIndex(kSubjectJointNames[kPelvis]);
   const Eigen::Vector3d standing = pointPositions(body, kinematics)[pelvis];
   // The root's offset is in the world frame.
   body.segments[0].offset += subject.rest()[kPelvis] - standing;
@@ -249,8 +267,9 @@ GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
 
 void FakeScene::poseSubject(uint64_t sequence, FakeRenderScratch& scratch) const {
   forwardKinematics(*model_, scratch.kinematics, truePose(sequence));
+  const Eigen::Matrix3d pelvis_turn = pelvisTurnAt(*model_, scratch.kinematics);
   subject_->pose(subjectJointsFromPoints(*model_, pointPositions(*model_, scratch.kinematics)),
-                 scratch.posed);
+                 scratch.posed, &pelvis_turn);
 }
 
 void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch,

@@ -27,7 +27,9 @@ BodyProportions proportionsOf(const SubjectJoints& j) {
            chainLength(j, {kRHip, kRKnee, kRAnkle, kRToe});
   p.arms = chainLength(j, {kLShoulder, kLElbow, kLWrist, kLHand}) +
            chainLength(j, {kRShoulder, kRElbow, kRWrist, kRHand});
-  p.trunk = (j[kNeck] - j[kPelvis]).norm();
+  // From between the hips, not from the pelvis joint: a subject's sits above its hips, the
+  // shipped body's level with them.
+  p.trunk = (j[kNeck] - 0.5 * (j[kLHip] + j[kRHip])).norm();
   p.head = (j[kHeadTop] - j[kNeck]).norm();
   p.width = (j[kLHip] - j[kRHip]).norm() + (j[kLShoulder] - j[kRShoulder]).norm();
   return p;

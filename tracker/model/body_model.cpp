@@ -332,6 +332,16 @@ BodyModel atFrameRate(const BodyModel& model, double hz) {
   return scaled;
 }
 
+void moveSegmentOrigin(BodyModel& model, int segment, const Eigen::Vector3d& shift) {
+  for (Segment& child : model.segments)
+    if (child.parent == segment) child.offset -= shift;
+  for (BodyPoint& point : model.points)
+    if (point.segment == segment) point.local -= shift;
+  Segment& moved = model.segments[segment];
+  if (moved.shape.type == ShapeType::kEllipsoid) moved.shape.center -= shift;
+  moved.offset += shift;
+}
+
 BodyModel scaledBodyModel(const BodyModel& model, double factor) {
   if (!(factor > 0) || !std::isfinite(factor))
     throw std::invalid_argument("body scale must be a positive factor, got " +

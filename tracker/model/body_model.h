@@ -127,6 +127,10 @@ BodyModel atFrameRate(const BodyModel& model, double hz);
 // fitted to a subject's height (tracker/search/body_size.h). Throws std::invalid_argument unless
 // factor is positive and finite.
 BodyModel scaledBodyModel(const BodyModel& model, double factor);
+// Moves segment `segment`'s origin by `shift` (in its frame at the neutral pose), its children,
+// points and ellipsoid staying where they were: the same body, turned by its DOFs about another
+// point. A cone starts at the origin, so it moves with it.
+void moveSegmentOrigin(BodyModel& model, int segment, const Eigen::Vector3d& shift);
 
 // Parses a body model from YAML text. `source` names the file in error messages. Throws
 // std::runtime_error with "<source>:<line>: <field path>: <reason>" on any bad input.

@@ -208,6 +208,9 @@ BodyModel fitModelToRestPoints(const BodyModel& model,
       fitted.segments[chest_segment].parent != pelvis)
     throw std::runtime_error("body model '" + model.name +
                              "': expected the thighs and the chest to hang from the pelvis");
+  // A model whose hip joints hang below its root is first re-rooted between them, where the fit
+  // puts the root, so its points and shapes stay where they were.
+  moveSegmentOrigin(fitted, pelvis, 0.5 * (l_thigh.offset + r_thigh.offset));
   const Eigen::Vector3d lateral = (l_thigh.offset - r_thigh.offset).normalized();
   const Eigen::Vector3d up = fitted.segments[chest_segment].offset.normalized();
 

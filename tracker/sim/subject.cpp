@@ -37,11 +37,18 @@ uint64_t splitmix64(uint64_t x) {
   return x ^ (x >> 31);
 }
 
+// The hip joints below the pelvis joint and the shoulder joints below the neck joint, as fractions
+// of the height: the means of the CMU skeletons the truth is mapped from (the pelvis joint is their
+// Hips, the neck their Neck). Their Hips also sits 3 to 7 cm behind the hip joints; the subject's
+// is straight above them, where a body model's pelvis point is.
+constexpr double kHipDrop = 0.057, kShoulderDrop = 0.015;
+
 // The bone to each joint from its parent as a fraction of the height (an average adult's, joint
-// centre to joint centre), times the subject's factors.
+// centre to joint centre), times the subject's factors. The hips' and shoulders' are their
+// lateral offsets (half the joint spacing); the rest of those offsets is below.
 std::array<double, kSubjectJointCount> boneFractions(const SubjectParams& p) {
   std::array<double, kSubjectJointCount> f{};
-  f[kNeck] = 0.30 * p.trunk;
+  f[kNeck] = (0.30 - kHipDrop) * p.trunk;
   f[kHeadTop] = 0.168;
   for (int side : {0, 1}) {
     const int hip = side ? kLHip : kRHip, shoulder = side ? kLShoulder : kRShoulder;
@@ -126,6 +133,21 @@ TrunkFrames trunkFrames(const SubjectJoints& j) {
   return t;
 }
 
+// A frame that turns with the driver's pelvis (origin kPelvis, joints kRHip and kLHip) or its
+// chest (kNeck, kRShoulder, kLShoulder): columns right, forward and up, from the three joints,
+// which turn together on any skeleton or body model. Where they are in line (a body whose hips
+// are level with its pelvis joint) the up axis is the spine's instead.
+Matrix3d girdleFrame(const SubjectJoints& j, int origin, int right, int left) {
+  Matrix3d m;
+  m.col(0) = unitOr(j[right] - j[left], Vector3d::UnitX());
+  const Vector3d centre = 0.5 * (j[right] + j[left]) - j[origin];
+  const Vector3d across = centre - centre.dot(m.col(0)) * m.col(0);
+  const Vector3d up = across.norm() > 0.01 ? Vector3d(-across) : Vector3d(j[kNeck] - j[kPelvis]);
+  m.col(2) = perpendicular(up, m.col(0));
+  m.col(1) = m.col(2).cross(m.col(0));
+  return m;
+}
+
 }  // namespace
 
 SubjectParams drawSubjectParams(uint64_t seed) {
@@ -196,6 +218,13 @@ SubjectJoints subjectJointsAt(const BodyModel& model, const Eigen::VectorXd& q) 
   return subjectJointsFromPoints(model, pointPositions(model, kin));
 }
 
+Eigen::Matrix3d pelvisTurnAt(const BodyModel& model, const KinematicsData& kinematics) {
+  const int pelvis = model.pointIndex(kSubjectJointNames[kPelvis]);
+  if (pelvis < 0)
+    throw std::invalid_argument("body model '" + model.name + "' has no point 'pelvis'");
+  return kinematics.world[model.points[pelvis].segment].rotation();
+}
+
 std::vector<Eigen::Vector3d> modelPointsFromJoints(const BodyModel& model,
                                                    const SubjectJoints& joints) {
   std::vector<Eigen::Vector3d> points(model.points.size(), Vector3d::Zero());
@@ -209,6 +238,20 @@ std::vector<Eigen::Vector3d> modelPointsFromJoints(const BodyModel& model,
 Subject::Subject(const SubjectParams& params, const SubjectJoints& driver_rest) : params_(params) {
   const std::array<double, kSubjectJointCount> fraction = boneFractions(params);
   for (int j = 0; j < kSubjectJointCount; ++j) bone_length_[j] = fraction[j] * params.height;
+  driver_trunk_ = std::max(1e-6, (driver_rest[kNeck] - driver_rest[kPelvis]).norm());
+  // The subject's own hips and shoulders, standing upright where the driver stands at rest.
+  const Vector3d up = Vector3d::UnitZ();
+  const Vector3d right_p = perpendicular(driver_rest[kRHip] - driver_rest[kLHip], up);
+  const Vector3d right_c = perpendicular(driver_rest[kRShoulder] - driver_rest[kLShoulder], up);
+  rest_pelvis_frame_ = girdleFrame(driver_rest, kPelvis, kRHip, kLHip);
+  const Matrix3d chest_frame = girdleFrame(driver_rest, kNeck, kRShoulder, kLShoulder);
+  for (int side : {1, -1}) {
+    const Vector3d hip = side * bone_length_[kRHip] * right_p - params.height * kHipDrop * up;
+    const Vector3d shoulder =
+        side * bone_length_[kRShoulder] * right_c - params.height * kShoulderDrop * up;
+    girdle_offset_[side > 0 ? kRHip : kLHip] = rest_pelvis_frame_.transpose() * hip;
+    girdle_offset_[side > 0 ? kRShoulder : kLShoulder] = chest_frame.transpose() * shoulder;
+  }
   // Built once at the nominal lengths, then scaled as a whole so the crown is at the height.
   for (int pass = 0; pass < 2; ++pass) {
     pelvis_height_ratio_ = 1;
@@ -218,8 +261,9 @@ Subject::Subject(const SubjectParams& params, const SubjectJoints& driver_rest) 
     const double pelvis = ankle_height - ankle;
     const double crown = pelvis + shape[kHeadTop].z() - shape[kPelvis].z();
     if (pass == 0) {
-      for (double& length : bone_length_)
-        length *= (params.height - ankle_height) / (crown - ankle_height);
+      const double scale = (params.height - ankle_height) / (crown - ankle_height);
+      for (double& length : bone_length_) length *= scale;
+      for (Vector3d& offset : girdle_offset_) offset *= scale;
       continue;
     }
     pelvis_height_ratio_ = driver_rest[kPelvis].z() > 1e-6 ? pelvis / driver_rest[kPelvis].z() : 1;
@@ -227,19 +271,31 @@ Subject::Subject(const SubjectParams& params, const SubjectJoints& driver_rest) 
   rest_ = retarget(driver_rest);
 }
 
-SubjectJoints Subject::retarget(const SubjectJoints& driver) const {
+SubjectJoints Subject::retarget(const SubjectJoints& driver, const Matrix3d* pelvis_turn) const {
   SubjectJoints out;
   out[kPelvis] = driver[kPelvis];
   out[kPelvis].z() *= pelvis_height_ratio_;
+  const Matrix3d pelvis = pelvis_turn ? Matrix3d(*pelvis_turn * rest_pelvis_frame_)
+                                      : girdleFrame(driver, kPelvis, kRHip, kLHip);
+  const Matrix3d chest = girdleFrame(driver, kNeck, kRShoulder, kLShoulder);
   for (int j = 1; j < kSubjectJointCount; ++j) {
     const int parent = kParent[j];
-    out[j] = out[parent] + bone_length_[j] * unitOr(driver[j] - driver[parent], Vector3d::UnitZ());
+    if (j == kRHip || j == kLHip)
+      out[j] = out[parent] + pelvis * girdle_offset_[j];
+    else if (j == kRShoulder || j == kLShoulder)
+      out[j] = out[parent] + chest * girdle_offset_[j];
+    else if (j == kNeck)  // the spine bends as the driver's does, shortening as it bends
+      out[j] = out[parent] + bone_length_[j] / driver_trunk_ * (driver[j] - driver[parent]);
+    else
+      out[j] =
+          out[parent] + bone_length_[j] * unitOr(driver[j] - driver[parent], Vector3d::UnitZ());
   }
   return out;
 }
 
-void Subject::pose(const SubjectJoints& driver, PosedSubject& out) const {
-  out.joints = retarget(driver);
+void Subject::pose(const SubjectJoints& driver, PosedSubject& out,
+                   const Matrix3d* pelvis_turn) const {
+  out.joints = retarget(driver, pelvis_turn);
   out.clothing = &params_.clothing;
   out.primitives.clear();
   addTrunkAndHead(out.joints, out);

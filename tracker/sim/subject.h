@@ -13,6 +13,7 @@
 #include <opencv2/core/matx.hpp>
 
 #include "tracker/model/body_model.h"
+#include "tracker/model/kinematics.h"
 
 namespace mocap {
 
@@ -81,6 +82,10 @@ SubjectJoints subjectJointsFromPoints(const BodyModel& model,
                                       const std::vector<Eigen::Vector3d>& points);
 // The joints of `model` at pose `q`.
 SubjectJoints subjectJointsAt(const BodyModel& model, const Eigen::VectorXd& q);
+// The world rotation of the segment carrying `model`'s pelvis point, placed by `kinematics`: how
+// its pelvis is turned (identity at the neutral pose of a body whose root stands unturned), the
+// pelvis_turn a Subject posed by the model takes.
+Eigen::Matrix3d pelvisTurnAt(const BodyModel& model, const KinematicsData& kinematics);
 // `joints` as model points, in model point order: the truth to score a tracked `model` against.
 // Points that are not joints (none on the human model) are left at zero.
 std::vector<Eigen::Vector3d> modelPointsFromJoints(const BodyModel& model,
@@ -118,9 +123,10 @@ struct PosedSubject {
 class Subject {
  public:
   // `driver_rest`: the driving skeleton's joints standing at rest, feet on the floor (z = 0),
-  // e.g. subjectJointsAt(model, model.neutralPose()). The subject keeps the driver's bone
-  // directions and its own bone lengths; its pelvis height scales with the driver's, so it
-  // stands on the floor where the driver stands.
+  // e.g. subjectJointsAt(model, model.neutralPose()). The subject keeps the driver's limb and
+  // spine directions with its own bone lengths, and its own hip and shoulder joints, placed in the
+  // driver's pelvis and chest frames; its pelvis height scales with the driver's, so it stands on
+  // the floor where the driver stands.
   Subject(const SubjectParams& params, const SubjectJoints& driver_rest);
 
   const SubjectParams& params() const { return params_; }
@@ -128,9 +134,15 @@ class Subject {
   // The subject's own joints when the driver stands at rest (its crown at params().height).
   const SubjectJoints& rest() const { return rest_; }
 
-  // Poses the subject as the driver's joints `driver` are. Thread-safe (const).
-  void pose(const SubjectJoints& driver, PosedSubject& out) const;
-  SubjectJoints retarget(const SubjectJoints& driver) const;
+  // Poses the subject as the driver's joints `driver` are. Thread-safe (const). The subject's hips
+  // turn with the driver's pelvis: by `pelvis_turn` where the driver knows it (its pelvis's
+  // rotation, identity as it stands at rest: a body model's root segment's world rotation), else
+  // by the driver's hip and pelvis joints, or by its spine where those are in line (a body whose
+  // hips are level with its pelvis point, which then does not turn them exactly with it).
+  void pose(const SubjectJoints& driver, PosedSubject& out,
+            const Eigen::Matrix3d* pelvis_turn = nullptr) const;
+  SubjectJoints retarget(const SubjectJoints& driver,
+                         const Eigen::Matrix3d* pelvis_turn = nullptr) const;
 
  private:
   void addTrunkAndHead(const SubjectJoints& j, PosedSubject& out) const;
@@ -139,6 +151,11 @@ class Subject {
 
   SubjectParams params_;
   std::array<double, kSubjectJointCount> bone_length_{};  // to each joint from its parent
+  // The hips from the pelvis and the shoulders from the neck, in the driver's girdle frames (see
+  // girdleFrame in subject.cpp); zero for the other joints.
+  SubjectJoints girdle_offset_{};
+  Eigen::Matrix3d rest_pelvis_frame_ = Eigen::Matrix3d::Identity();  // the driver's, at rest
+  double driver_trunk_ = 1;         // the driver's pelvis to neck, standing at rest
   double pelvis_height_ratio_ = 1;  // subject's standing pelvis height / the driver's
   SubjectJoints rest_;
 };

@@ -373,7 +373,9 @@ SubjectSceneRenderer::SubjectSceneRenderer(const BodyModel& model, const Rig& ri
 
 const PosedSubject& SubjectSceneRenderer::pose(const Eigen::VectorXd& q) {
   forwardKinematics(model_, kinematics_, q);
-  subject_.pose(subjectJointsFromPoints(model_, pointPositions(model_, kinematics_)), posed_);
+  const Eigen::Matrix3d pelvis_turn = pelvisTurnAt(model_, kinematics_);
+  subject_.pose(subjectJointsFromPoints(model_, pointPositions(model_, kinematics_)), posed_,
+                &pelvis_turn);
   truth_ = modelPointsFromJoints(model_, posed_.joints);
   return posed_;
 }

@@ -336,11 +336,13 @@ TEST(FakeSceneSubject, TheCamerasAndTheTruthShowThePersonNotTheModel) {
         EXPECT_GT(intersectionOverUnion(painted, silhouette), 0.97);
       }
       // The subject's joints, posed by the model's at the true pose.
-      const SubjectJoints joints = scene.subject()->retarget(subjectJointsAt(model, truth.q));
-      const std::vector<Eigen::Vector3d> expected = modelPointsFromJoints(model, joints);
-      ASSERT_EQ(truth.points.size(), model.points.size());
       KinematicsData kinematics(model);
       forwardKinematics(model, kinematics, truth.q);
+      const Eigen::Matrix3d pelvis_turn = pelvisTurnAt(model, kinematics);
+      const SubjectJoints joints =
+          scene.subject()->retarget(subjectJointsAt(model, truth.q), &pelvis_turn);
+      const std::vector<Eigen::Vector3d> expected = modelPointsFromJoints(model, joints);
+      ASSERT_EQ(truth.points.size(), model.points.size());
       const std::vector<Eigen::Vector3d> model_points = pointPositions(model, kinematics);
       forwardKinematics(*scene.truthBody(), truth_kinematics, truth.q);
       const std::vector<Eigen::Vector3d> carried =

@@ -59,6 +59,38 @@ TEST(Retarget, FittedBonesHaveTheSubjectsLengths) {
               2 * 0.07, 1e-9);
 }
 
+// Fitted to its own rest points, a body whose hip joints hang below its root (the experiments'
+// hips-below body) keeps its points and trunk shapes where they were, the spine bent or not,
+// although the fit puts its root between the hips.
+TEST(Retarget, ABodyFittedToItsOwnRestPointsKeepsItsShape) {
+  const BodyModel model = loadBodyModel(std::string(MOCAP_SOURCE_DIR) +
+                                        "/tracker/experiments/models/human_hips_below_pelvis.yaml");
+  ASSERT_LT(model.segments[model.points[model.pointIndex("l_hip")].segment].offset.z(), -0.01);
+  KinematicsData data(model);
+  forwardKinematics(model, data, model.neutralPose());
+  const BodyModel fitted = fitModelToRestPoints(model, pointPositions(model, data));
+  Eigen::VectorXd bent = model.neutralPose();
+  bent[model.dofIndex("spine_flex")] = 0.6;
+  bent[model.dofIndex("r_hip_flex")] = 0.4;
+  KinematicsData fitted_data(fitted);
+  for (const Eigen::VectorXd& q : {model.neutralPose(), bent}) {
+    forwardKinematics(model, data, q);
+    forwardKinematics(fitted, fitted_data, q);
+    const std::vector<Eigen::Vector3d> expected = pointPositions(model, data);
+    const std::vector<Eigen::Vector3d> got = pointPositions(fitted, fitted_data);
+    for (std::size_t p = 0; p < expected.size(); ++p)
+      EXPECT_LT((got[p] - expected[p]).norm(), 1e-9) << model.points[p].name;
+    for (const char* segment : {"pelvis", "chest"}) {
+      const int s = model.segmentIndex(segment);
+      EXPECT_LT((fitted_data.world[s] * fitted.segments[s].shape.center -
+                 data.world[s] * model.segments[s].shape.center)
+                    .norm(),
+                1e-9)
+          << segment;
+    }
+  }
+}
+
 TEST(Retarget, AxisMapTakesYUpToZUp) {
   REQUIRE_SHARED_MOTION("cmu_131_01_walk.bvh");
   const Bvh walk = loadBvh(kMotionDir + "cmu_131_01_walk.bvh");

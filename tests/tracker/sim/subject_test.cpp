@@ -172,6 +172,54 @@ TEST(Subject, SeedsVaryHeightGirthAndWidthsWithinTheirRanges) {
       0.9);
 }
 
+// The hips and shoulders are the subject's own, whatever skeleton drives it: the shipped body
+// (hips 7 cm below its pelvis point) and the CMU walk's fitted body (its own layout) pose the same
+// person, and the hips turn with the driver's pelvis.
+TEST(Subject, TheHipsAndShouldersAreTheSubjectsWhateverTheDriver) {
+  const std::string path = testing_support::kSharedMotionDir + "cmu_131_01_walk.bvh";
+  REQUIRE_SHARED_FILE(path);
+  const BodyModel shipped = builtinHumanModel();
+  const BodyModel cmu = fitModelToBvh(shipped, loadBvh(path).skeleton);
+  const SubjectParams params = drawSubjectParams(3);
+  const Subject a(params, subjectJointsAt(shipped, shipped.neutralPose()));
+  const Subject b(params, subjectJointsAt(cmu, cmu.neutralPose()));
+  // Each subject is scaled to its height as its driver stands, so compare in thigh lengths.
+  auto thigh = [](const Subject& s) { return (s.rest()[kRKnee] - s.rest()[kRHip]).norm(); };
+  for (int j : {kRHip, kLHip, kRShoulder, kLShoulder}) {
+    const int parent = subjectJointParent(j);
+    const Vector3d from_a = a.rest()[j] - a.rest()[parent], from_b = b.rest()[j] - b.rest()[parent];
+    EXPECT_LT((from_a / thigh(a) - from_b / thigh(b)).norm(), 1e-3) << kSubjectJointNames[j];
+    // Below their parent joint: 0.057 and 0.015 of the height.
+    EXPECT_NEAR(-from_a.z() / params.height, j == kRHip || j == kLHip ? 0.057 : 0.015, 1e-3)
+        << kSubjectJointNames[j];
+  }
+  // Tipped 40 degrees at the root and bent 30 more at the spine: the hips turn with the pelvis,
+  // rigidly, given how the shipped body's pelvis turned (its hips are in line with its pelvis
+  // point, so its joints alone do not say).
+  Eigen::VectorXd bowed = shipped.neutralPose();
+  bowed[shipped.dofIndex("root_pitch")] = 40 * M_PI / 180;
+  bowed[shipped.dofIndex("spine_flex")] = 30 * M_PI / 180;
+  KinematicsData kinematics(shipped);
+  forwardKinematics(shipped, kinematics, bowed);
+  const Eigen::Matrix3d turn = pelvisTurnAt(shipped, kinematics);
+  EXPECT_TRUE(turn.isApprox(Eigen::AngleAxisd(40 * M_PI / 180, Vector3d::UnitX()).matrix()));
+  const SubjectJoints posed = a.retarget(subjectJointsAt(shipped, bowed), &turn);
+  for (int hip : {kRHip, kLHip})
+    EXPECT_LT((posed[hip] - posed[kPelvis] - turn * (a.rest()[hip] - a.rest()[kPelvis])).norm(),
+              1e-9);
+  // The CMU body's hips hang below its pelvis joint: its joints alone turn the hips as rigidly.
+  KinematicsData cmu_kinematics(cmu);
+  Eigen::VectorXd cmu_bowed = cmu.neutralPose();
+  cmu_bowed[cmu.dofIndex("root_pitch")] = 40 * M_PI / 180;
+  cmu_bowed[cmu.dofIndex("spine_flex")] = 30 * M_PI / 180;
+  forwardKinematics(cmu, cmu_kinematics, cmu_bowed);
+  const Eigen::Matrix3d cmu_turn = pelvisTurnAt(cmu, cmu_kinematics);
+  const SubjectJoints by_joints = b.retarget(subjectJointsAt(cmu, cmu_bowed));
+  const SubjectJoints by_turn = b.retarget(subjectJointsAt(cmu, cmu_bowed), &cmu_turn);
+  for (int j = 0; j < kSubjectJointCount; ++j)
+    EXPECT_LT((by_joints[j] - by_turn[j]).norm(), 1e-9) << kSubjectJointNames[j];
+}
+
 TEST(Subject, SilhouetteIsNotTheModelsYetCoversTheTruthJoints) {
   const BodyModel model = builtinHumanModel();
   const Rig rig = labRigFor(model);
