@@ -173,7 +173,7 @@ TEST(Subject, SeedsVaryHeightGirthAndWidthsWithinTheirRanges) {
 }
 
 // The hips and shoulders are the subject's own, whatever skeleton drives it: the shipped body
-// (hips 7 cm below its pelvis point) and the CMU walk's fitted body (its own layout) pose the same
+// (hips level with its pelvis point) and the CMU walk's fitted body (its own layout) pose the same
 // person, and the hips turn with the driver's pelvis.
 TEST(Subject, TheHipsAndShouldersAreTheSubjectsWhateverTheDriver) {
   const std::string path = testing_support::kSharedMotionDir + "cmu_131_01_walk.bvh";
