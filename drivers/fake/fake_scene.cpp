@@ -267,9 +267,7 @@ GroundTruth FakeScene::groundTruth(uint64_t sequence) const {
 
 void FakeScene::poseSubject(uint64_t sequence, FakeRenderScratch& scratch) const {
   forwardKinematics(*model_, scratch.kinematics, truePose(sequence));
-  const Eigen::Matrix3d pelvis_turn = pelvisTurnAt(*model_, scratch.kinematics);
-  subject_->pose(subjectJointsFromPoints(*model_, pointPositions(*model_, scratch.kinematics)),
-                 scratch.posed, &pelvis_turn);
+  subject_->pose(*model_, scratch.kinematics, scratch.posed);
 }
 
 void FakeScene::render(int camera, uint64_t sequence, FakeRenderScratch& scratch,

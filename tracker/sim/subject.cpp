@@ -303,6 +303,12 @@ void Subject::pose(const SubjectJoints& driver, PosedSubject& out,
   addGarments(out.joints, out);
 }
 
+void Subject::pose(const BodyModel& model, const KinematicsData& kinematics,
+                   PosedSubject& out) const {
+  const Matrix3d pelvis_turn = pelvisTurnAt(model, kinematics);
+  pose(subjectJointsFromPoints(model, pointPositions(model, kinematics)), out, &pelvis_turn);
+}
+
 void Subject::addTrunkAndHead(const SubjectJoints& j, PosedSubject& out) const {
   const double r = params_.height / 1.75, g = params_.girth;
   const Clothing& c = params_.clothing;

@@ -143,6 +143,8 @@ class Subject {
             const Eigen::Matrix3d* pelvis_turn = nullptr) const;
   SubjectJoints retarget(const SubjectJoints& driver,
                          const Eigen::Matrix3d* pelvis_turn = nullptr) const;
+  // Posed by body model `model` as `kinematics` places it: its joints and its pelvis's turn.
+  void pose(const BodyModel& model, const KinematicsData& kinematics, PosedSubject& out) const;
 
  private:
   void addTrunkAndHead(const SubjectJoints& j, PosedSubject& out) const;

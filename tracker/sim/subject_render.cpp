@@ -373,9 +373,7 @@ SubjectSceneRenderer::SubjectSceneRenderer(const BodyModel& model, const Rig& ri
 
 const PosedSubject& SubjectSceneRenderer::pose(const Eigen::VectorXd& q) {
   forwardKinematics(model_, kinematics_, q);
-  const Eigen::Matrix3d pelvis_turn = pelvisTurnAt(model_, kinematics_);
-  subject_.pose(subjectJointsFromPoints(model_, pointPositions(model_, kinematics_)), posed_,
-                &pelvis_turn);
+  subject_.pose(model_, kinematics_, posed_);
   truth_ = modelPointsFromJoints(model_, posed_.joints);
   return posed_;
 }
